@@ -1,0 +1,142 @@
+//! What every online estimator shares: the per-sample input, the output, the internal
+//! unit scaling and the [`Estimator`] trait.
+
+use crate::error::{positive, ConfigError};
+use crate::Status;
+
+/// Internal units of an estimator.
+///
+/// In SI the regressors of a contact model differ by many orders of magnitude (δ ≈ 1e-3 m
+/// next to F ≈ 10 N for the paper's rig; δ ≈ 1e-6 m and F ≈ 1e-9 N for an AFM), and the
+/// parameters with them (k ≈ 4.6e4 N/m^1.2 next to n ≈ 1.2). Each estimator therefore
+/// works in units of `length_m` and `force_n` (time stays in seconds) so that its
+/// parameters are of order one, which keeps P(0) = c·I a sensible prior and the logarithms
+/// of eqs. (26) and (40) well centred. Inputs and outputs are SI; the scaling is
+/// invisible outside the estimator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Scaling {
+    /// Internal unit of length \[m\] (1e-3 for the paper's rig: millimetres).
+    pub length_m: f32,
+    /// Internal unit of force \[N\] (1.0 for the paper's rig).
+    pub force_n: f32,
+}
+
+impl Default for Scaling {
+    /// Millimetres and newtons: the paper's rig (δ ≈ 1-5 mm, F ≈ 1-15 N).
+    fn default() -> Self {
+        Scaling {
+            length_m: 1.0e-3,
+            force_n: 1.0,
+        }
+    }
+}
+
+impl Scaling {
+    /// Validates both units (finite, > 0).
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming `length_m` or `force_n`.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive("length_m", self.length_m)?;
+        positive("force_n", self.force_n)?;
+        Ok(())
+    }
+
+    /// Powers of ten closest to the typical magnitudes `depth_m` and `force_n` of a record.
+    /// Non-positive or non-finite magnitudes fall back to the default (mm, N).
+    pub fn for_magnitudes(depth_m: f32, force_n: f32) -> Self {
+        let pow10 = |v: f32, fallback: f32| {
+            if v.is_finite() && v > 0.0 {
+                libm::powf(10.0, libm::roundf(libm::log10f(v)))
+            } else {
+                fallback
+            }
+        };
+        let d = Scaling::default();
+        Scaling {
+            length_m: pow10(depth_m, d.length_m),
+            force_n: pow10(force_n, d.force_n),
+        }
+    }
+
+    /// `sample` in internal units: (δ/L, δ̇/L \[1/s\], F/F0).
+    #[inline]
+    pub fn to_internal(&self, sample: &ContactSample) -> (f32, f32, f32) {
+        (
+            sample.depth_m / self.length_m,
+            sample.depth_rate_m_per_s / self.length_m,
+            sample.force_n / self.force_n,
+        )
+    }
+}
+
+/// One sample of the contact, in SI, as handed to an estimator by the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ContactSample {
+    /// Penetration δ = x − x_contact \[m\], positive into the material.
+    pub depth_m: f32,
+    /// Penetration rate δ̇ \[m/s\] (from the state-variable filter).
+    pub depth_rate_m_per_s: f32,
+    /// Contact force F \[N\], offset removed, positive when the material pushes back.
+    pub force_n: f32,
+}
+
+impl ContactSample {
+    /// `true` when all three fields are finite.
+    #[inline]
+    pub fn is_finite(&self) -> bool {
+        self.depth_m.is_finite() && self.depth_rate_m_per_s.is_finite() && self.force_n.is_finite()
+    }
+}
+
+/// Output of one estimator step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Estimate<P> {
+    /// Physical parameters after this sample, SI (see each estimator's parameter type).
+    pub parameters: P,
+    /// Force predicted for this sample before the update (a-priori), \[N\]. This is the
+    /// F̂ of eq. (24) and the innovation reference of the residual monitor.
+    pub predicted_force_n: f32,
+    /// What happened during the step.
+    pub status: Status,
+}
+
+/// An online estimator of a contact model's parameters, stepped once per sample.
+///
+/// `step` never panics and never returns non-finite parameters: a sample it cannot use
+/// is skipped with a [`Status`] flag and the last parameters are held.
+pub trait Estimator {
+    /// Physical parameter set (SI units).
+    type Parameters: Copy + core::fmt::Debug + PartialEq;
+
+    /// Processes one in-contact sample (eq. 23 and the model-specific regression).
+    fn step(&mut self, sample: &ContactSample) -> Estimate<Self::Parameters>;
+
+    /// Current physical parameters (SI).
+    fn parameters(&self) -> Self::Parameters;
+
+    /// Standard error of each parameter (SI, same layout as [`Estimator::parameters`]),
+    /// from σ̂²·P by the delta method; see [`crate::rls::Rls::standard_errors`].
+    fn standard_errors(&self) -> Self::Parameters;
+
+    /// Called by the pipeline when a new contact begins: estimators with memory of
+    /// past samples (ARX forms) restart it from the undeformed state (δ = 0, F = 0).
+    fn start_contact(&mut self) {}
+
+    /// Full reset to the initial parameters and covariance.
+    fn reset(&mut self);
+}
+
+/// Returns `value` if finite, otherwise `fallback`.
+#[inline]
+pub(crate) fn finite_or(value: f32, fallback: f32) -> f32 {
+    if value.is_finite() {
+        value
+    } else {
+        fallback
+    }
+}

@@ -1,0 +1,272 @@
+//! Hammerstein (quasi-linear viscoelastic) two-phase estimator, eqs. (38)-(42), Fig. 9.
+//!
+//! Phase 1, Γ1 (eqs. 39-42): while the probe loads fast (δ̇ > δ̇*), F ≈ F_e and the power
+//! law F_e = γ1·δ^γ2 is fitted on its logarithm, y1 = ln F, φ1 = \[1, ln δ\]ᵀ,
+//! θ1 = \[ln γ1, γ2\]ᵀ, by weighted RLS with weights β^{N−h}·e^{y1(h)} (eq. 41).
+//!
+//! Phase 2, Γ2 (footnote 4): every in-contact sample, the filter G_L(z⁻¹) of eq. (38)
+//! (b0 = 1, order R) is fitted as an ARX model from F̂_e to F:
+//! y2 = F(h) − F̂_e(h), φ2 = \[F(h−1)…F(h−R), F̂_e(h−1)…F̂_e(h−R)\]ᵀ,
+//! θ2 = \[−a1…−aR, b1…bR\]ᵀ, with F̂_e computed from the γ̂ just updated.
+
+use nalgebra::{SVector, Vector2};
+
+use crate::error::{non_negative, ConfigError};
+use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
+use crate::rls::{Rls, RlsConfig};
+use crate::Status;
+
+/// Hammerstein parameters: power-law elastic response (eq. 39) and filter (eq. 38).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HammersteinParameters<const R: usize> {
+    /// γ1 \[N/m^γ2\]: F_e = γ1·δ^γ2.
+    pub gamma1: f32,
+    /// γ2 (dimensionless).
+    pub gamma2: f32,
+    /// Denominator a1..aR of G_L(z⁻¹) (dimensionless, at the sample rate).
+    pub a: [f32; R],
+    /// Numerator b1..bR of G_L(z⁻¹) (b0 = 1).
+    pub b: [f32; R],
+}
+
+impl<const R: usize> Default for HammersteinParameters<R> {
+    fn default() -> Self {
+        HammersteinParameters {
+            gamma1: 0.0,
+            gamma2: 0.0,
+            a: [0.0; R],
+            b: [0.0; R],
+        }
+    }
+}
+
+impl<const R: usize> HammersteinParameters<R> {
+    /// Static (DC) gain of G_L: (1 + Σb_i)/(1 + Σa_i), the fully relaxed fraction c0 of
+    /// the reduced relaxation function (eq. 10) when the model is a QLV one.
+    pub fn static_gain(&self) -> f32 {
+        let num: f32 = 1.0 + self.b.iter().sum::<f32>();
+        let den: f32 = 1.0 + self.a.iter().sum::<f32>();
+        num / den
+    }
+}
+
+/// Configuration of [`HammersteinEstimator`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct HammersteinConfig {
+    /// Internal units.
+    pub scaling: Scaling,
+    /// Γ1: weighted RLS for \[ln γ1, γ2\] (eq. 42).
+    pub elastic_stage: RlsConfig,
+    /// Γ2: RLS for \[−a_i, b_i\].
+    pub filter_stage: RlsConfig,
+    /// δ̇* \[m/s\]: Γ1 is updated only while δ̇ exceeds it (fast loading, F ≈ F_e).
+    pub min_depth_rate_m_per_s: f32,
+    /// Γ1 skips samples with δ at or below this \[m\] (ln δ guard).
+    pub min_depth_m: f32,
+    /// Γ1 skips samples with F at or below this \[N\] (ln F guard).
+    pub min_force_n: f32,
+}
+
+impl Default for HammersteinConfig {
+    /// The paper's polyurethane experiment: loading at 30 mm/s, so δ̇* = 10 mm/s.
+    fn default() -> Self {
+        HammersteinConfig {
+            scaling: Scaling::default(),
+            elastic_stage: RlsConfig {
+                initial_covariance: 1.0e2,
+                forgetting: crate::rls::Forgetting::Fixed { beta: 1.0 },
+                ..RlsConfig::default()
+            },
+            filter_stage: RlsConfig {
+                initial_covariance: 1.0e2,
+                forgetting: crate::rls::Forgetting::Fixed { beta: 1.0 },
+                ..RlsConfig::default()
+            },
+            min_depth_rate_m_per_s: 10.0e-3,
+            min_depth_m: 20.0e-6,
+            min_force_n: 0.1,
+        }
+    }
+}
+
+impl HammersteinConfig {
+    /// Validates the config.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the bad field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.scaling.validate()?;
+        self.elastic_stage.validate()?;
+        self.filter_stage.validate()?;
+        non_negative("min_depth_rate_m_per_s", self.min_depth_rate_m_per_s)?;
+        non_negative("min_depth_m", self.min_depth_m)?;
+        non_negative("min_force_n", self.min_force_n)?;
+        Ok(())
+    }
+}
+
+/// Two-phase Hammerstein estimator with filter order `R`; `NP` must equal 2·R (the size
+/// of θ2; checked at compile time). Use the aliases [`Hammerstein1`], [`Hammerstein2`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HammersteinEstimator<const R: usize, const NP: usize> {
+    config: HammersteinConfig,
+    elastic: Rls<2>,
+    filter: Rls<NP>,
+    /// F(h−1)…F(h−R), internal units.
+    past_force: [f32; R],
+    /// F̂_e(h−1)…F̂_e(h−R), internal units.
+    past_elastic: [f32; R],
+    min_depth: f32,
+    min_force: f32,
+    min_rate: f32,
+}
+
+/// Hammerstein estimator with a first-order filter (the paper's experiment, r = 1).
+pub type Hammerstein1 = HammersteinEstimator<1, 2>;
+/// Hammerstein estimator with a second-order filter.
+pub type Hammerstein2 = HammersteinEstimator<2, 4>;
+
+impl<const R: usize, const NP: usize> HammersteinEstimator<R, NP> {
+    /// Builds the estimator with θ1(0) = \[0, 1\] (γ1 = 1 internal unit, γ2 = 1) and
+    /// θ2(0) = 0 (G_L = 1).
+    ///
+    /// # Errors
+    /// [`ConfigError`] if the config is invalid.
+    pub fn try_new(config: HammersteinConfig) -> Result<Self, ConfigError> {
+        const { assert!(NP == 2 * R, "HammersteinEstimator<R, NP> needs NP = 2·R") };
+        config.validate()?;
+        let s = config.scaling;
+        Ok(HammersteinEstimator {
+            elastic: Rls::try_with_initial(&config.elastic_stage, Vector2::new(0.0, 1.0))?,
+            filter: Rls::try_new(&config.filter_stage)?,
+            past_force: [0.0; R],
+            past_elastic: [0.0; R],
+            min_depth: config.min_depth_m / s.length_m,
+            min_force: config.min_force_n / s.force_n,
+            min_rate: config.min_depth_rate_m_per_s / s.length_m,
+            config,
+        })
+    }
+
+    fn elastic_force(&self, depth: f32) -> f32 {
+        if depth <= 0.0 {
+            return 0.0;
+        }
+        let th = self.elastic.theta();
+        libm::expf(th[0] + th[1] * libm::logf(depth))
+    }
+
+    fn filter_regressor(&self) -> SVector<f32, NP> {
+        SVector::from_fn(|i, _| {
+            if i < R {
+                self.past_force[i]
+            } else {
+                self.past_elastic[i - R]
+            }
+        })
+    }
+
+    fn push_history(&mut self, force: f32, elastic: f32) {
+        if R > 0 {
+            self.past_force.copy_within(0..R - 1, 1);
+            self.past_elastic.copy_within(0..R - 1, 1);
+            self.past_force[0] = force;
+            self.past_elastic[0] = elastic;
+        }
+    }
+}
+
+impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> {
+    type Parameters = HammersteinParameters<R>;
+
+    fn step(&mut self, sample: &ContactSample) -> Estimate<HammersteinParameters<R>> {
+        let s = self.config.scaling;
+        let (d, v, f) = s.to_internal(sample);
+        if !sample.is_finite() {
+            return Estimate {
+                parameters: self.parameters(),
+                predicted_force_n: 0.0,
+                status: Status::NON_FINITE_INPUT,
+            };
+        }
+        let phi2 = self.filter_regressor();
+        let predicted = self.elastic_force(d) + self.filter.predict(&phi2);
+        let abs_error_n = (f - predicted).abs() * s.force_n;
+        let mut status = Status::empty();
+
+        // Γ1, only during fast loading (F ≈ F_e), eqs. (40)-(42).
+        if v > self.min_rate {
+            if d <= self.min_depth {
+                status |= Status::GUARD_DEPTH;
+            } else if f <= self.min_force {
+                status |= Status::GUARD_FORCE;
+            } else {
+                let beta = self.config.elastic_stage.forgetting.beta(abs_error_n);
+                let phi1 = Vector2::new(1.0, libm::logf(d));
+                status |= self
+                    .elastic
+                    .update_weighted(&phi1, libm::logf(f), beta, f)
+                    .status;
+                status |= Status::ELASTIC_STAGE_ACTIVE;
+            }
+        }
+
+        // Γ2, every in-contact sample, with F̂_e from the updated γ̂ (footnote 4).
+        let fe = self.elastic_force(d);
+        let beta = self.config.filter_stage.forgetting.beta(abs_error_n);
+        status |= self.filter.update(&phi2, f - fe, beta).status;
+        self.push_history(f, fe);
+
+        Estimate {
+            parameters: self.parameters(),
+            predicted_force_n: finite_or(predicted * s.force_n, 0.0),
+            status,
+        }
+    }
+
+    fn parameters(&self) -> HammersteinParameters<R> {
+        let s = self.config.scaling;
+        let th1 = self.elastic.theta();
+        let th2 = self.filter.theta();
+        let gamma2 = th1[1];
+        let gamma1 = libm::expf(th1[0]) * s.force_n / libm::expf(gamma2 * libm::logf(s.length_m));
+        let mut p = HammersteinParameters {
+            gamma1,
+            gamma2,
+            ..HammersteinParameters::default()
+        };
+        for i in 0..R {
+            p.a[i] = -th2[i];
+            p.b[i] = th2[R + i];
+        }
+        p
+    }
+
+    fn standard_errors(&self) -> HammersteinParameters<R> {
+        let p = self.parameters();
+        let se1 = self.elastic.standard_errors();
+        let se2 = self.filter.standard_errors();
+        let mut e = HammersteinParameters {
+            gamma1: p.gamma1 * se1[0],
+            gamma2: se1[1],
+            ..HammersteinParameters::default()
+        };
+        for i in 0..R {
+            e.a[i] = se2[i];
+            e.b[i] = se2[R + i];
+        }
+        e
+    }
+
+    fn start_contact(&mut self) {
+        self.past_force = [0.0; R];
+        self.past_elastic = [0.0; R];
+    }
+
+    fn reset(&mut self) {
+        self.elastic.reset();
+        self.filter.reset();
+        self.start_contact();
+    }
+}

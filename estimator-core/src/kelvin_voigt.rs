@@ -1,0 +1,116 @@
+//! Kelvin-Voigt estimator: RLS (eq. 23) on the linear regression of eq. (1).
+//!
+//! y = F, φ = \[δ, δ̇\]ᵀ, θ = \[κ, λ\]ᵀ (internal units, see [`Scaling`]).
+
+use nalgebra::Vector2;
+
+use crate::error::ConfigError;
+use crate::estimator::{ContactSample, Estimate, Estimator, Scaling};
+use crate::rls::{Rls, RlsConfig};
+use crate::Status;
+
+/// Kelvin-Voigt parameters, eq. (1).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct KelvinVoigtParameters {
+    /// Stiffness κ \[N/m\].
+    pub kappa: f32,
+    /// Damping λ \[N·s/m\].
+    pub lambda: f32,
+}
+
+/// Configuration of [`KelvinVoigtEstimator`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct KelvinVoigtConfig {
+    /// Internal units.
+    pub scaling: Scaling,
+    /// RLS settings (P(0) in internal units: (N/mm)² for the default scaling).
+    pub rls: RlsConfig,
+}
+
+impl KelvinVoigtConfig {
+    /// Validates the config.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the bad field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.scaling.validate()?;
+        self.rls.validate()
+    }
+}
+
+/// Online Kelvin-Voigt estimator (eqs. 1, 20-24).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KelvinVoigtEstimator {
+    config: KelvinVoigtConfig,
+    rls: Rls<2>,
+}
+
+impl KelvinVoigtEstimator {
+    /// Builds the estimator with θ̂(0) = 0.
+    ///
+    /// # Errors
+    /// [`ConfigError`] if the config is invalid.
+    pub fn try_new(config: KelvinVoigtConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(KelvinVoigtEstimator {
+            config,
+            rls: Rls::try_new(&config.rls)?,
+        })
+    }
+
+    fn parameters_si(&self, theta: &Vector2<f32>) -> KelvinVoigtParameters {
+        let s = self.config.scaling;
+        KelvinVoigtParameters {
+            kappa: theta[0] * s.force_n / s.length_m,
+            lambda: theta[1] * s.force_n / s.length_m,
+        }
+    }
+}
+
+impl Estimator for KelvinVoigtEstimator {
+    type Parameters = KelvinVoigtParameters;
+
+    fn step(&mut self, sample: &ContactSample) -> Estimate<KelvinVoigtParameters> {
+        let s = self.config.scaling;
+        let (d, v, f) = s.to_internal(sample);
+        let phi = Vector2::new(d, v);
+        let predicted = self.rls.predict(&phi);
+        let mut status = Status::empty();
+        if !sample.is_finite() {
+            status |= Status::NON_FINITE_INPUT;
+        } else if d <= 0.0 {
+            status |= Status::GUARD_DEPTH;
+        } else {
+            let beta = self
+                .config
+                .rls
+                .forgetting
+                .beta((f - predicted).abs() * s.force_n);
+            status |= self.rls.update(&phi, f, beta).status;
+        }
+        let parameters = self.parameters();
+        if parameters.kappa < 0.0 || parameters.lambda < 0.0 {
+            status |= Status::NONPHYSICAL;
+        }
+        Estimate {
+            parameters,
+            predicted_force_n: predicted * s.force_n,
+            status,
+        }
+    }
+
+    fn parameters(&self) -> KelvinVoigtParameters {
+        self.parameters_si(self.rls.theta())
+    }
+
+    fn standard_errors(&self) -> KelvinVoigtParameters {
+        self.parameters_si(&self.rls.standard_errors())
+    }
+
+    fn reset(&mut self) {
+        self.rls.reset();
+    }
+}

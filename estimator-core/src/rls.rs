@@ -1,0 +1,489 @@
+//! Recursive least squares with a forgetting factor.
+//!
+//! Implements eqs. (20)-(23) of Biagiotti & Melchiorri, the adaptive forgetting factor of
+//! eq. (24), and the weighted variant of eqs. (41)-(42):
+//!
+//! ```text
+//! Q(h) = P(h-1)·φ(h) / (β/w(h) + φᵀ(h)·P(h-1)·φ(h))
+//! θ̂(h) = θ̂(h-1) + Q(h)·(y(h) − φᵀ(h)·θ̂(h-1))
+//! P(h) = (1/β)·(I − Q(h)·φᵀ(h))·P(h-1)
+//! ```
+//!
+//! with w(h) = 1 for the ordinary cost (20)-(22) and w(h) = e^{y(h)} for (41).
+//!
+//! Numerical safety, beyond the paper:
+//! - P is kept exactly symmetric (only the upper triangle is computed, then mirrored).
+//! - Anti-windup: when excitation vanishes, dividing by β makes P grow without bound
+//!   ("covariance windup"). Here the effective factor for one sample is raised towards 1
+//!   just enough that trace(P) never exceeds `max_covariance_trace`
+//!   ([`Status::COVARIANCE_BOUNDED`]).
+//! - A non-finite φ, y or weight skips the update ([`Status::NON_FINITE_INPUT`]); a
+//!   covariance that turns non-finite or loses a positive diagonal is reset to c·I
+//!   ([`Status::COVARIANCE_RESET`]). θ̂ is never overwritten with a non-finite value.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::error::{check, positive, ConfigError};
+use crate::Status;
+
+/// Forgetting-factor policy for an RLS estimator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum Forgetting {
+    /// Constant forgetting factor β ∈ (0, 1] (eq. 22). β = 1 is ordinary least squares.
+    Fixed {
+        /// Forgetting factor β, dimensionless, in (0, 1].
+        beta: f32,
+    },
+    /// β computed each sample from the force prediction error (eq. 24).
+    Adaptive(AdaptiveForgetting),
+}
+
+impl Forgetting {
+    /// Validates the policy.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming `beta` or `alpha1`/`alpha2`/`alpha3` when out of range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        match self {
+            Forgetting::Fixed { beta } => {
+                check("beta", *beta, |b| b > 0.0 && b <= 1.0, "(0, 1]")?;
+                Ok(())
+            }
+            Forgetting::Adaptive(a) => a.validate(),
+        }
+    }
+
+    /// The forgetting factor for a sample whose a-priori force prediction error is
+    /// `abs_force_error_n` \[N\] (≥ 0). For [`Forgetting::Fixed`] the error is ignored.
+    #[inline]
+    pub fn beta(&self, abs_force_error_n: f32) -> f32 {
+        match self {
+            Forgetting::Fixed { beta } => *beta,
+            Forgetting::Adaptive(a) => a.beta(abs_force_error_n),
+        }
+    }
+}
+
+impl Default for Forgetting {
+    fn default() -> Self {
+        Forgetting::Fixed { beta: 0.999 }
+    }
+}
+
+/// Adaptive forgetting factor of eq. (24):
+/// β = 1 − α1·((1/π)·arctan(α2·|F − F̂| − α3) + 1/2).
+///
+/// For small errors β → 1 − α1·(1/2 − arctan(α3)/π) ≈ 1 (when α3 ≫ 1); for large errors
+/// β → 1 − α1. The transition sits at |F − F̂| ≈ α3/α2 and its width is ≈ 1/α2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct AdaptiveForgetting {
+    /// α1 ∈ [0, 1): 1 − α1 is β for large errors. Dimensionless.
+    pub alpha1: f32,
+    /// α2 > 0 \[1/N\]: steepness of the transition.
+    pub alpha2: f32,
+    /// α3 \[dimensionless\]: threshold between small and large errors, in units of 1/α2.
+    pub alpha3: f32,
+}
+
+impl AdaptiveForgetting {
+    /// Validates α1 ∈ [0, 1), α2 > 0, α3 finite, and that small errors give β ≥ 0.9
+    /// (otherwise the estimator forgets even when it predicts well).
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming `alpha1`, `alpha2` or `alpha3`.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check("alpha1", self.alpha1, |a| (0.0..1.0).contains(&a), "[0, 1)")?;
+        positive("alpha2", self.alpha2)?;
+        check("alpha3", self.alpha3, |_| true, "finite")?;
+        if self.beta(0.0) < 0.9 {
+            return Err(ConfigError::Inconsistent {
+                field: "alpha3",
+                reason: "beta at zero error is below 0.9: raise alpha3 or lower alpha1",
+            });
+        }
+        Ok(())
+    }
+
+    /// β for an a-priori force error `abs_force_error_n` \[N\] (eq. 24).
+    #[inline]
+    pub fn beta(&self, abs_force_error_n: f32) -> f32 {
+        let s = libm::atanf(self.alpha2 * abs_force_error_n - self.alpha3)
+            * core::f32::consts::FRAC_1_PI
+            + 0.5;
+        1.0 - self.alpha1 * s
+    }
+}
+
+/// Configuration shared by every RLS stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct RlsConfig {
+    /// c in P(0) = c·I, in the estimator's internal (scaled) units. > 0.
+    pub initial_covariance: f32,
+    /// Upper bound on trace(P) (anti-windup), same units. ≥ N·c, i.e. P may never
+    /// exceed its own start in total.
+    pub max_covariance_trace_factor: f32,
+    /// Forgetting factor policy (eq. 22 or eq. 24).
+    pub forgetting: Forgetting,
+}
+
+impl Default for RlsConfig {
+    fn default() -> Self {
+        RlsConfig {
+            initial_covariance: 1.0e3,
+            max_covariance_trace_factor: 1.0,
+            forgetting: Forgetting::default(),
+        }
+    }
+}
+
+impl RlsConfig {
+    /// Validates the config.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming `initial_covariance`, `max_covariance_trace_factor` (must be
+    /// ≥ 1: the bound is this factor times trace(P(0))) or a forgetting field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive("initial_covariance", self.initial_covariance)?;
+        check(
+            "max_covariance_trace_factor",
+            self.max_covariance_trace_factor,
+            |v| v >= 1.0,
+            ">= 1",
+        )?;
+        self.forgetting.validate()
+    }
+}
+
+/// Result of one RLS update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RlsUpdate {
+    /// A-priori error y − φᵀθ̂(h−1), in the units of y. NaN when the input was non-finite.
+    pub prior_error: f32,
+    /// Conditions met during the update.
+    pub status: Status,
+}
+
+/// Recursive least-squares estimator of `N` parameters (eq. 23), f32, fixed size.
+///
+/// Memory: θ̂ (N floats), P (N² floats) and four scalars; no heap.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rls<const N: usize> {
+    theta: SVector<f32, N>,
+    theta0: SVector<f32, N>,
+    p: SMatrix<f32, N, N>,
+    initial_covariance: f32,
+    max_trace: f32,
+    /// Exponentially weighted mean of the weighted a-posteriori squared residual, for
+    /// parameter standard errors.
+    residual_variance: f32,
+}
+
+/// Mixing rate of the residual-variance average (≈ 1000-sample memory).
+const RESIDUAL_VARIANCE_RATE: f32 = 1.0e-3;
+
+impl<const N: usize> Rls<N> {
+    /// New estimator with θ̂(0) = 0 and P(0) = c·I.
+    ///
+    /// # Errors
+    /// [`ConfigError`] if `config` is invalid ([`RlsConfig::validate`]).
+    pub fn try_new(config: &RlsConfig) -> Result<Self, ConfigError> {
+        Self::try_with_initial(config, SVector::zeros())
+    }
+
+    /// New estimator with a given θ̂(0) (internal units) and P(0) = c·I.
+    ///
+    /// # Errors
+    /// [`ConfigError`] if `config` is invalid or θ̂(0) is not finite (`theta0`).
+    pub fn try_with_initial(
+        config: &RlsConfig,
+        theta0: SVector<f32, N>,
+    ) -> Result<Self, ConfigError> {
+        config.validate()?;
+        if theta0.iter().any(|v| !v.is_finite()) {
+            return Err(ConfigError::NonFinite { field: "theta0" });
+        }
+        let c = config.initial_covariance;
+        Ok(Rls {
+            theta: theta0,
+            theta0,
+            p: SMatrix::identity() * c,
+            initial_covariance: c,
+            max_trace: config.max_covariance_trace_factor * c * N as f32,
+            residual_variance: 0.0,
+        })
+    }
+
+    /// Current estimate θ̂ (internal units).
+    #[inline]
+    pub fn theta(&self) -> &SVector<f32, N> {
+        &self.theta
+    }
+
+    /// Overwrites θ̂ (internal units), e.g. to clamp a parameter to its physical range.
+    /// Non-finite values are ignored.
+    #[inline]
+    pub fn set_theta(&mut self, theta: SVector<f32, N>) {
+        if theta.iter().all(|v| v.is_finite()) {
+            self.theta = theta;
+        }
+    }
+
+    /// Current covariance P (internal units), symmetric positive definite.
+    #[inline]
+    pub fn covariance(&self) -> &SMatrix<f32, N, N> {
+        &self.p
+    }
+
+    /// Model output φᵀθ̂ for a regressor φ.
+    #[inline]
+    pub fn predict(&self, phi: &SVector<f32, N>) -> f32 {
+        phi.dot(&self.theta)
+    }
+
+    /// Standard error of each parameter, σ̂·sqrt(P_ii), where σ̂² is the running mean of
+    /// the (weighted) a-posteriori squared residual. Under forgetting this overstates
+    /// the true spread by up to √2 (P/(1+β) is the asymptotic covariance); it is meant
+    /// as an honest upper bound, not an exact interval.
+    pub fn standard_errors(&self) -> SVector<f32, N> {
+        let s2 = self.residual_variance;
+        SVector::from_fn(|i, _| libm::sqrtf((s2 * self.p[(i, i)]).max(0.0)))
+    }
+
+    /// Resets P to c·I, keeping θ̂ (used after an abrupt change or a numerical fault).
+    pub fn reset_covariance(&mut self) {
+        self.p = SMatrix::identity() * self.initial_covariance;
+    }
+
+    /// Resets θ̂ to θ̂(0) and P to c·I.
+    pub fn reset(&mut self) {
+        self.theta = self.theta0;
+        self.reset_covariance();
+        self.residual_variance = 0.0;
+    }
+
+    /// One update of eq. (23) with forgetting factor `beta` ∈ (0, 1].
+    #[inline]
+    pub fn update(&mut self, phi: &SVector<f32, N>, y: f32, beta: f32) -> RlsUpdate {
+        self.update_weighted(phi, y, beta, 1.0)
+    }
+
+    /// One weighted update (eqs. 41-42): the sample's weight in the cost is `weight` > 0
+    /// (the paper's e^{y1(h)}), older samples decay by `beta`.
+    pub fn update_weighted(
+        &mut self,
+        phi: &SVector<f32, N>,
+        y: f32,
+        beta: f32,
+        weight: f32,
+    ) -> RlsUpdate {
+        if !(y.is_finite() && weight.is_finite() && weight > 0.0 && beta.is_finite())
+            || phi.iter().any(|v| !v.is_finite())
+        {
+            return RlsUpdate {
+                prior_error: f32::NAN,
+                status: Status::NON_FINITE_INPUT,
+            };
+        }
+        let beta = beta.clamp(f32::MIN_POSITIVE, 1.0);
+        let mut status = Status::empty();
+        let pphi = self.p * phi;
+        let denom = beta / weight + phi.dot(&pphi);
+        let prior_error = y - phi.dot(&self.theta);
+        if !(denom.is_finite() && denom > 0.0) {
+            self.reset_covariance();
+            return RlsUpdate {
+                prior_error,
+                status: Status::COVARIANCE_RESET,
+            };
+        }
+        let q = pphi / denom;
+        let new_theta = self.theta + q * prior_error;
+
+        // P − Q·(Pφ)ᵀ, upper triangle then mirrored: exactly symmetric.
+        let mut p = self.p;
+        let mut trace = 0.0;
+        for j in 0..N {
+            for i in 0..=j {
+                let v = self.p[(i, j)] - q[i] * pphi[j];
+                p[(i, j)] = v;
+                p[(j, i)] = v;
+            }
+            trace += p[(j, j)];
+        }
+        // Anti-windup: effective β in [β, 1] so that trace(P) ≤ max_trace.
+        let mut beta_eff = beta;
+        if trace > self.max_trace * beta {
+            beta_eff = (trace / self.max_trace).min(1.0);
+            status |= Status::COVARIANCE_BOUNDED;
+        }
+        p /= beta_eff;
+
+        let diagonal_ok = (0..N).all(|i| p[(i, i)] > 0.0);
+        if !diagonal_ok || p.iter().any(|v| !v.is_finite()) {
+            self.reset_covariance();
+            status |= Status::COVARIANCE_RESET;
+        } else {
+            self.p = p;
+        }
+        if new_theta.iter().all(|v| v.is_finite()) {
+            self.theta = new_theta;
+            let post = y - phi.dot(&self.theta);
+            let r = weight * post * post;
+            if r.is_finite() {
+                self.residual_variance += RESIDUAL_VARIANCE_RATE * (r - self.residual_variance);
+            }
+        } else {
+            status |= Status::COVARIANCE_RESET;
+            self.reset_covariance();
+        }
+        RlsUpdate {
+            prior_error,
+            status,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector2;
+
+    fn cfg(beta: f32) -> RlsConfig {
+        RlsConfig {
+            initial_covariance: 1.0e4,
+            max_covariance_trace_factor: 1.0,
+            forgetting: Forgetting::Fixed { beta },
+        }
+    }
+
+    #[test]
+    fn converges_to_exact_linear_model() {
+        let mut rls = Rls::<2>::try_new(&cfg(1.0)).unwrap();
+        for h in 0..200 {
+            let x = (h as f32 * 0.1).sin();
+            let phi = Vector2::new(1.0, x);
+            rls.update(&phi, 3.0 - 2.0 * x, 1.0);
+        }
+        assert!((rls.theta()[0] - 3.0).abs() < 1e-4, "{:?}", rls.theta());
+        assert!((rls.theta()[1] + 2.0).abs() < 1e-4, "{:?}", rls.theta());
+    }
+
+    #[test]
+    fn forgetting_tracks_a_parameter_jump() {
+        let mut rls = Rls::<1>::try_new(&cfg(0.95)).unwrap();
+        let phi = SVector::<f32, 1>::new(1.0);
+        for _ in 0..200 {
+            rls.update(&phi, 1.0, 0.95);
+        }
+        for _ in 0..200 {
+            rls.update(&phi, 5.0, 0.95);
+        }
+        assert!((rls.theta()[0] - 5.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn covariance_does_not_wind_up_without_excitation() {
+        let mut rls = Rls::<2>::try_new(&cfg(0.9)).unwrap();
+        let zero = Vector2::zeros();
+        let mut bounded = false;
+        for _ in 0..100_000 {
+            let u = rls.update(&zero, 0.0, 0.9);
+            bounded |= u.status.contains(Status::COVARIANCE_BOUNDED);
+            assert!(rls.covariance().trace() <= 2.0e4 * 1.0001);
+        }
+        assert!(bounded);
+    }
+
+    #[test]
+    fn non_finite_input_skips_the_update() {
+        let mut rls = Rls::<2>::try_new(&cfg(1.0)).unwrap();
+        rls.update(&Vector2::new(1.0, 2.0), 3.0, 1.0);
+        let before = rls;
+        let u = rls.update(&Vector2::new(f32::NAN, 2.0), 3.0, 1.0);
+        assert_eq!(u.status, Status::NON_FINITE_INPUT);
+        assert_eq!(rls, before);
+        let u = rls.update(&Vector2::new(1.0, 2.0), f32::INFINITY, 1.0);
+        assert_eq!(u.status, Status::NON_FINITE_INPUT);
+        assert_eq!(rls, before);
+    }
+
+    #[test]
+    fn weighted_update_matches_batch_weighted_least_squares() {
+        // Noisy data: the weighted RLS (β = 1) must equal the batch weighted LS solution.
+        let mut rls = Rls::<2>::try_new(&RlsConfig {
+            initial_covariance: 1.0e6,
+            ..cfg(1.0)
+        })
+        .unwrap();
+        let mut a = nalgebra::Matrix2::<f64>::zeros();
+        let mut b = nalgebra::Vector2::<f64>::zeros();
+        for h in 0..500 {
+            let x = (h as f32 * 0.37).sin() * 2.0;
+            let noise = ((h * 7919) % 101) as f32 / 101.0 - 0.5;
+            let y = 1.0 + 0.5 * x + noise;
+            let w = 1.0 + (h % 5) as f32;
+            rls.update_weighted(&Vector2::new(1.0, x), y, 1.0, w);
+            let phi = nalgebra::Vector2::new(1.0, x as f64);
+            a += phi * phi.transpose() * w as f64;
+            b += phi * (y * w) as f64;
+        }
+        let exact = a.try_inverse().unwrap() * b;
+        assert!((rls.theta()[0] as f64 - exact[0]).abs() < 1e-3);
+        assert!((rls.theta()[1] as f64 - exact[1]).abs() < 1e-3);
+    }
+
+    #[test]
+    fn adaptive_forgetting_follows_eq_24() {
+        let a = AdaptiveForgetting {
+            alpha1: 0.05,
+            alpha2: 10.0,
+            alpha3: 20.0,
+        };
+        a.validate().unwrap();
+        // Small error: β ≈ 1 − α1·(1/2 − atan(20)/π) ≈ 1 − 0.05·0.0159.
+        assert!(
+            (a.beta(0.0) - (1.0 - 0.05 * (0.5 - libm::atanf(20.0) / core::f32::consts::PI))).abs()
+                < 1e-6
+        );
+        // Large error: β → 1 − α1.
+        assert!((a.beta(1.0e6) - 0.95).abs() < 1e-4);
+        // Threshold at α3/α2 = 2 N: β is halfway.
+        assert!((a.beta(2.0) - 0.975).abs() < 1e-6);
+    }
+
+    #[test]
+    fn invalid_configs_name_their_field() {
+        let e = RlsConfig {
+            initial_covariance: 0.0,
+            ..RlsConfig::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(matches!(
+            e,
+            ConfigError::OutOfRange {
+                field: "initial_covariance",
+                ..
+            }
+        ));
+        let e = Forgetting::Fixed { beta: 1.5 }.validate().unwrap_err();
+        assert!(matches!(e, ConfigError::OutOfRange { field: "beta", .. }));
+        let e = Forgetting::Adaptive(AdaptiveForgetting {
+            alpha1: 0.5,
+            alpha2: 1.0,
+            alpha3: 0.0,
+        })
+        .validate()
+        .unwrap_err();
+        assert!(matches!(
+            e,
+            ConfigError::Inconsistent {
+                field: "alpha3",
+                ..
+            }
+        ));
+    }
+}

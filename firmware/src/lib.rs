@@ -1,0 +1,2 @@
+//! Firmware placeholder: the RTIC application lands with the firmware issue.
+#![no_std]

@@ -1,0 +1,1 @@
+//! Host tools (work in progress).
