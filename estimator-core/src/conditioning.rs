@@ -20,11 +20,14 @@ pub struct StateVariableFilterConfig {
 }
 
 impl Default for StateVariableFilterConfig {
-    /// 1 kHz sampling, 30 Hz bandwidth, ζ = 1.
+    /// 1 kHz sampling, 100 Hz bandwidth, ζ = 1 (lag 2ζ/ω_c ≈ 3.2 ms). Chosen on simulated
+    /// Hunt-Crossley plastic and gel with 1 µm encoder steps and 30 mN force noise: at
+    /// 30 Hz the lag alone biased the heavily damped gel by up to 19 % (velocity-only
+    /// conditioning) or 2 % (all signals filtered); at 100 Hz, 0.5-1.4 %.
     fn default() -> Self {
         StateVariableFilterConfig {
             sample_time_s: 1.0e-3,
-            bandwidth_hz: 30.0,
+            bandwidth_hz: 100.0,
             damping: 1.0,
         }
     }
@@ -97,6 +100,10 @@ impl StateVariableFilter {
         let u = 0.5 * (input + self.previous_input);
         self.x = self.ad * self.x + self.bd * u;
         self.previous_input = input;
+        if !(self.x[0].is_finite() && self.x[1].is_finite()) {
+            // Overflow from an absurd input: restart at rest rather than stay NaN forever.
+            self.reset_to(if input.is_finite() { input } else { 0.0 });
+        }
         (self.x[0], self.x[1])
     }
 

@@ -66,6 +66,14 @@ pub struct HammersteinConfig {
     pub min_depth_m: f32,
     /// Γ1 skips samples with F at or below this \[N\] (ln F guard).
     pub min_force_n: f32,
+    /// Corner frequency \[Hz\] of the first-order low-pass L(z⁻¹) applied to both F and
+    /// F̂_e before Γ2 (0 disables it). The ARX relation A·F = B·F_e is linear, so L leaves
+    /// it unchanged, while measurement noise in the regressor F(h−1) would otherwise bias
+    /// the slow pole (errors in variables): prefiltering as in Ljung & Söderström, the
+    /// paper's ref. \[23\]. Must lie well above the relaxation rates of interest.
+    pub filter_prefilter_hz: f32,
+    /// Weight of each Γ1 sample: the paper's e^{y1} = F (eq. 41) or F².
+    pub elastic_weighting: crate::hunt_crossley::LogWeighting,
 }
 
 impl Default for HammersteinConfig {
@@ -86,6 +94,8 @@ impl Default for HammersteinConfig {
             min_depth_rate_m_per_s: 10.0e-3,
             min_depth_m: 20.0e-6,
             min_force_n: 0.1,
+            filter_prefilter_hz: 5.0,
+            elastic_weighting: crate::hunt_crossley::LogWeighting::Force,
         }
     }
 }
@@ -102,6 +112,7 @@ impl HammersteinConfig {
         non_negative("min_depth_rate_m_per_s", self.min_depth_rate_m_per_s)?;
         non_negative("min_depth_m", self.min_depth_m)?;
         non_negative("min_force_n", self.min_force_n)?;
+        non_negative("filter_prefilter_hz", self.filter_prefilter_hz)?;
         Ok(())
     }
 }
@@ -117,9 +128,20 @@ pub struct HammersteinEstimator<const R: usize, const NP: usize> {
     past_force: [f32; R],
     /// F̂_e(h−1)…F̂_e(h−R), internal units.
     past_elastic: [f32; R],
+    /// Prefiltered F and F̂_e histories (Γ2 regression), internal units.
+    past_force_lp: [f32; R],
+    past_elastic_lp: [f32; R],
+    /// Prefilter states and gain κ = 1 − e^{−2π f T} (κ = 1: no prefilter).
+    force_lp: f32,
+    elastic_lp: f32,
+    prefilter_gain: f32,
+    /// θ_nom: coefficients of A = B = (1 − z⁻¹)^R in θ2's layout \[−a_i, b_i\].
+    nominal: SVector<f32, NP>,
     min_depth: f32,
     min_force: f32,
     min_rate: f32,
+    /// Last finite SI parameters (held when a conversion overflows).
+    held: HammersteinParameters<R>,
 }
 
 /// Hammerstein estimator with a first-order filter (the paper's experiment, r = 1).
@@ -137,7 +159,26 @@ impl<const R: usize, const NP: usize> HammersteinEstimator<R, NP> {
         const { assert!(NP == 2 * R, "HammersteinEstimator<R, NP> needs NP = 2·R") };
         config.validate()?;
         let s = config.scaling;
-        Ok(HammersteinEstimator {
+        // (1 − z⁻¹)^R: coefficient of z^{−i} is (−1)^i·C(R, i).
+        let mut binomial = [0.0f32; R];
+        let mut c = 1.0f32;
+        for i in 1..=R {
+            c = c * (R + 1 - i) as f32 / i as f32;
+            binomial[i - 1] = if i % 2 == 0 { c } else { -c };
+        }
+        let nominal = SVector::from_fn(|i, _| if i < R { -binomial[i] } else { binomial[i - R] });
+        let prefilter_gain = if config.filter_prefilter_hz > 0.0 {
+            -libm::expm1f(-2.0 * core::f32::consts::PI * config.filter_prefilter_hz * 1.0e-3)
+        } else {
+            1.0
+        };
+        let mut est = HammersteinEstimator {
+            nominal,
+            past_force_lp: [0.0; R],
+            past_elastic_lp: [0.0; R],
+            force_lp: 0.0,
+            elastic_lp: 0.0,
+            prefilter_gain,
             elastic: Rls::try_with_initial(&config.elastic_stage, Vector2::new(0.0, 1.0))?,
             filter: Rls::try_new(&config.filter_stage)?,
             past_force: [0.0; R],
@@ -145,8 +186,33 @@ impl<const R: usize, const NP: usize> HammersteinEstimator<R, NP> {
             min_depth: config.min_depth_m / s.length_m,
             min_force: config.min_force_n / s.force_n,
             min_rate: config.min_depth_rate_m_per_s / s.length_m,
+            held: HammersteinParameters::default(),
             config,
-        })
+        };
+        est.held = est.parameters_si().unwrap_or_default();
+        Ok(est)
+    }
+
+    /// SI parameters from θ1, θ2, or `None` if they do not fit in f32.
+    fn parameters_si(&self) -> Option<HammersteinParameters<R>> {
+        let s = self.config.scaling;
+        let th1 = self.elastic.theta();
+        let th2 = self.filter.theta() + self.nominal;
+        let gamma2 = th1[1];
+        let gamma1 = libm::expf(th1[0]) * s.force_n / libm::expf(gamma2 * libm::logf(s.length_m));
+        let mut p = HammersteinParameters {
+            gamma1,
+            gamma2,
+            ..HammersteinParameters::default()
+        };
+        for i in 0..R {
+            p.a[i] = -th2[i];
+            p.b[i] = th2[R + i];
+        }
+        let finite = p.gamma1.is_finite()
+            && p.gamma2.is_finite()
+            && p.a.iter().chain(p.b.iter()).all(|v| v.is_finite());
+        finite.then_some(p)
     }
 
     fn elastic_force(&self, depth: f32) -> f32 {
@@ -157,22 +223,14 @@ impl<const R: usize, const NP: usize> HammersteinEstimator<R, NP> {
         libm::expf(th[0] + th[1] * libm::logf(depth))
     }
 
-    fn filter_regressor(&self) -> SVector<f32, NP> {
-        SVector::from_fn(|i, _| {
-            if i < R {
-                self.past_force[i]
-            } else {
-                self.past_elastic[i - R]
-            }
-        })
+    fn regressor(force: &[f32; R], elastic: &[f32; R]) -> SVector<f32, NP> {
+        SVector::from_fn(|i, _| if i < R { force[i] } else { elastic[i - R] })
     }
 
-    fn push_history(&mut self, force: f32, elastic: f32) {
+    fn push(history: &mut [f32; R], value: f32) {
         if R > 0 {
-            self.past_force.copy_within(0..R - 1, 1);
-            self.past_elastic.copy_within(0..R - 1, 1);
-            self.past_force[0] = force;
-            self.past_elastic[0] = elastic;
+            history.copy_within(0..R - 1, 1);
+            history[0] = value;
         }
     }
 }
@@ -190,8 +248,9 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
                 status: Status::NON_FINITE_INPUT,
             };
         }
-        let phi2 = self.filter_regressor();
-        let predicted = self.elastic_force(d) + self.filter.predict(&phi2);
+        let phi2 = Self::regressor(&self.past_force, &self.past_elastic);
+        let predicted =
+            self.elastic_force(d) + self.nominal.dot(&phi2) + self.filter.predict(&phi2);
         let abs_error_n = (f - predicted).abs() * s.force_n;
         let mut status = Status::empty();
 
@@ -204,19 +263,37 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
             } else {
                 let beta = self.config.elastic_stage.forgetting.beta(abs_error_n);
                 let phi1 = Vector2::new(1.0, libm::logf(d));
+                let weight = match self.config.elastic_weighting {
+                    crate::hunt_crossley::LogWeighting::Uniform => 1.0,
+                    crate::hunt_crossley::LogWeighting::Force => f,
+                    crate::hunt_crossley::LogWeighting::ForceSquared => f * f,
+                };
                 status |= self
                     .elastic
-                    .update_weighted(&phi1, libm::logf(f), beta, f)
+                    .update_weighted(&phi1, libm::logf(f), beta, weight)
                     .status;
                 status |= Status::ELASTIC_STAGE_ACTIVE;
             }
         }
 
-        // Γ2, every in-contact sample, with F̂_e from the updated γ̂ (footnote 4).
+        // Γ2, every in-contact sample, with F̂_e from the updated γ̂ (footnote 4), on the
+        // prefiltered signals.
         let fe = self.elastic_force(d);
+        let k = self.prefilter_gain;
+        self.force_lp += k * (f - self.force_lp);
+        self.elastic_lp += k * (fe - self.elastic_lp);
+        let phi2_lp = Self::regressor(&self.past_force_lp, &self.past_elastic_lp);
+        let y2 = self.force_lp - self.elastic_lp - self.nominal.dot(&phi2_lp);
         let beta = self.config.filter_stage.forgetting.beta(abs_error_n);
-        status |= self.filter.update(&phi2, f - fe, beta).status;
-        self.push_history(f, fe);
+        status |= self.filter.update(&phi2_lp, y2, beta).status;
+        Self::push(&mut self.past_force, f);
+        Self::push(&mut self.past_elastic, fe);
+        Self::push(&mut self.past_force_lp, self.force_lp);
+        Self::push(&mut self.past_elastic_lp, self.elastic_lp);
+        match self.parameters_si() {
+            Some(p) => self.held = p,
+            None => status |= Status::NONPHYSICAL,
+        }
 
         Estimate {
             parameters: self.parameters(),
@@ -226,21 +303,7 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
     }
 
     fn parameters(&self) -> HammersteinParameters<R> {
-        let s = self.config.scaling;
-        let th1 = self.elastic.theta();
-        let th2 = self.filter.theta();
-        let gamma2 = th1[1];
-        let gamma1 = libm::expf(th1[0]) * s.force_n / libm::expf(gamma2 * libm::logf(s.length_m));
-        let mut p = HammersteinParameters {
-            gamma1,
-            gamma2,
-            ..HammersteinParameters::default()
-        };
-        for i in 0..R {
-            p.a[i] = -th2[i];
-            p.b[i] = th2[R + i];
-        }
-        p
+        self.held
     }
 
     fn standard_errors(&self) -> HammersteinParameters<R> {
@@ -262,11 +325,16 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
     fn start_contact(&mut self) {
         self.past_force = [0.0; R];
         self.past_elastic = [0.0; R];
+        self.past_force_lp = [0.0; R];
+        self.past_elastic_lp = [0.0; R];
+        self.force_lp = 0.0;
+        self.elastic_lp = 0.0;
     }
 
     fn reset(&mut self) {
         self.elastic.reset();
         self.filter.reset();
         self.start_contact();
+        self.held = self.parameters_si().unwrap_or_default();
     }
 }

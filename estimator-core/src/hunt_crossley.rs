@@ -1,7 +1,7 @@
 //! Hunt-Crossley estimators: the paper's double-stage Γ1/Γ2 in feedback (eqs. 25-37) and,
 //! for comparison, a single-stage log-linear RLS from the literature.
 
-use nalgebra::{Vector1, Vector2, Vector3};
+use nalgebra::{Vector2, Vector3};
 
 use crate::error::{check, non_negative, ConfigError};
 use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
@@ -82,22 +82,73 @@ pub struct HuntCrossleyConfig {
     pub initial_exponent: f32,
     /// Logarithm guards and exponent bounds.
     pub guards: HuntCrossleyGuards,
+    /// Give Γ2 an intercept: y2 = c + n·ln δ instead of y2 = n·ln δ (beyond the paper).
+    ///
+    /// Without it an error in k̂ enters Γ2's regression as ln(k/k̂) and biases n̂ towards
+    /// the value that compensates it; the feedback loop then closes the gap in n by only
+    /// a fraction 1 − E\[ln δ\]²/E\[ln² δ\] per memory length of the RLS, which depends on the
+    /// length unit (ln δ must be centred near 0). The intercept absorbs ln(k/k̂), so Γ2
+    /// converges independently of Γ1: the condition under eq. (34) holds by construction.
+    pub exponent_intercept: bool,
+}
+
+/// Forgetting used by both stages by default: β = 0.9995 (2 s memory at 1 kHz) after a
+/// start-up that begins at 0.99 and relaxes over 1000 samples. The feedback between Γ1
+/// and Γ2 advances by one "iteration" per memory length, so it needs forgetting early;
+/// once converged, a long memory keeps the noise in the estimates low. Chosen on
+/// simulated plastic and gel (seeds 1-4): an earlier start of 0.97 made the gel diverge.
+///
+/// For material changes use adaptive forgetting (eq. 24) with α1 ≤ 0.005, e.g.
+/// [`adaptive_forgetting`]: the coupled stages need a memory of a good part of a motion
+/// cycle. With α1 = 0.01 (β down to 0.99, 100 samples) the simulated gel oscillated: δ and
+/// δ̇ co-vary within one stroke, so k, λ and n are not separable over so short a window and
+/// n̂ swung between its bounds.
+pub const HUNT_CROSSLEY_RLS: RlsConfig = RlsConfig {
+    initial_covariance: 1.0e3,
+    max_covariance_trace_factor: 1.0,
+    forgetting: crate::rls::Forgetting::Fixed { beta: 0.9995 },
+    startup_forgetting: 0.99,
+    startup_samples: 1000.0,
+};
+
+/// Adaptive forgetting (eq. 24) for tracking material changes with the Hunt-Crossley
+/// estimators: β ≈ 0.99984 while |F − F̂| stays well under `threshold_n` \[N\], falling
+/// towards 0.995 above it (α1 = 0.005, α3 = 3.2, α2 = α3/threshold). Choose the
+/// threshold at ≈ 10× the force noise.
+pub fn adaptive_forgetting(threshold_n: f32) -> crate::rls::Forgetting {
+    crate::rls::Forgetting::Adaptive(crate::rls::AdaptiveForgetting {
+        alpha1: 0.005,
+        alpha2: 3.2 / threshold_n,
+        alpha3: 3.2,
+    })
 }
 
 impl Default for HuntCrossleyConfig {
+    /// Paper's structure with the intercept in Γ2 (see `exponent_intercept`) and
+    /// [`HUNT_CROSSLEY_RLS`] forgetting; n̂(0) = 1.
     fn default() -> Self {
         HuntCrossleyConfig {
             scaling: Scaling::default(),
-            stage1: RlsConfig {
-                initial_covariance: 1.0e3,
-                ..RlsConfig::default()
-            },
+            stage1: HUNT_CROSSLEY_RLS,
             stage2: RlsConfig {
                 initial_covariance: 1.0,
-                ..RlsConfig::default()
+                ..HUNT_CROSSLEY_RLS
             },
             initial_exponent: 1.0,
             guards: HuntCrossleyGuards::default(),
+            exponent_intercept: true,
+        }
+    }
+}
+
+impl HuntCrossleyConfig {
+    /// The paper taken literally: Γ2 without intercept (eqs. 26-29), otherwise as
+    /// [`Default`]. Converges only when ln δ is centred near 0 in the internal length unit
+    /// (see `exponent_intercept`).
+    pub fn paper_literal() -> Self {
+        HuntCrossleyConfig {
+            exponent_intercept: false,
+            ..HuntCrossleyConfig::default()
         }
     }
 }
@@ -123,6 +174,13 @@ impl HuntCrossleyConfig {
     }
 }
 
+impl HuntCrossleyParameters {
+    /// `true` when k, λ and n are all finite.
+    pub fn is_finite(&self) -> bool {
+        self.k.is_finite() && self.lambda.is_finite() && self.n.is_finite()
+    }
+}
+
 /// SI value of an internal Hunt-Crossley parameter set (k_s, λ_s, n).
 fn hunt_crossley_to_si(s: &Scaling, k: f32, lambda: f32, n: f32) -> HuntCrossleyParameters {
     let l_pow_n = libm::expf(n * libm::logf(s.length_m));
@@ -137,15 +195,20 @@ fn hunt_crossley_to_si(s: &Scaling, k: f32, lambda: f32, n: f32) -> HuntCrossley
 ///
 /// Γ1 (eq. 25): y1 = F, φ1 = \[δ^n̂, δ^n̂·δ̇\]ᵀ, θ1 = \[k, λ\]ᵀ.
 /// Γ2 (eqs. 26-29, 31): y2 = ln(F/(k̂ + λ̂·δ̇)), φ2 = ln δ, θ2 = n, using the k̂, λ̂ that Γ1
-/// has just produced. Each logarithm is guarded (δ, F ≤ minimum; k̂ + λ̂·δ̇ ≤ 0) and n̂ is
+/// has just produced (optionally with an intercept, see
+/// [`HuntCrossleyConfig::exponent_intercept`]). Each logarithm is guarded (δ, F ≤ minimum; k̂ + λ̂·δ̇ ≤ 0) and n̂ is
 /// projected into its configured range. δ^n̂ is computed as e^{n̂·ln δ}, reusing ln δ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HuntCrossleyEstimator {
     config: HuntCrossleyConfig,
     gamma1: Rls<2>,
-    gamma2: Rls<1>,
+    /// θ2 = \[c, n\]; c stays 0 unless `exponent_intercept` (its regressor is then 0).
+    gamma2: Rls<2>,
+    intercept_regressor: f32,
     min_depth: f32,
     min_force: f32,
+    /// Last finite SI parameters (held when a conversion overflows).
+    held: HuntCrossleyParameters,
 }
 
 impl HuntCrossleyEstimator {
@@ -157,15 +220,32 @@ impl HuntCrossleyEstimator {
         config.validate()?;
         Ok(HuntCrossleyEstimator {
             gamma1: Rls::try_new(&config.stage1)?,
-            gamma2: Rls::try_with_initial(&config.stage2, Vector1::new(config.initial_exponent))?,
+            gamma2: Rls::try_with_initial(
+                &config.stage2,
+                Vector2::new(0.0, config.initial_exponent),
+            )?,
+            intercept_regressor: if config.exponent_intercept { 1.0 } else { 0.0 },
             min_depth: config.guards.min_depth_m / config.scaling.length_m,
             min_force: config.guards.min_force_n / config.scaling.force_n,
+            held: hunt_crossley_to_si(&config.scaling, 0.0, 0.0, config.initial_exponent),
             config,
         })
     }
 
     fn exponent(&self) -> f32 {
-        self.gamma2.theta()[0]
+        self.gamma2.theta()[1]
+    }
+
+    /// Refreshes the held SI parameters; `NONPHYSICAL` if they do not fit in f32.
+    fn refresh(&mut self) -> Status {
+        let th = self.gamma1.theta();
+        let si = hunt_crossley_to_si(&self.config.scaling, th[0], th[1], self.exponent());
+        if si.is_finite() {
+            self.held = si;
+            Status::empty()
+        } else {
+            Status::NONPHYSICAL
+        }
     }
 }
 
@@ -209,16 +289,18 @@ impl Estimator for HuntCrossleyEstimator {
         } else {
             let y2 = libm::logf(f) - libm::logf(impedance);
             let beta2 = self.config.stage2.forgetting.beta(abs_error_n);
-            status |= self.gamma2.update(&Vector1::new(ln_d), y2, beta2).status;
+            let phi2 = Vector2::new(self.intercept_regressor, ln_d);
+            status |= self.gamma2.update(&phi2, y2, beta2).status;
             let g = self.config.guards;
-            let n = self.exponent();
-            let clamped = n.clamp(g.min_exponent, g.max_exponent);
-            if clamped != n {
-                self.gamma2.set_theta(Vector1::new(clamped));
+            let mut th2 = *self.gamma2.theta();
+            if th2[1] < g.min_exponent || th2[1] > g.max_exponent {
+                th2[1] = th2[1].clamp(g.min_exponent, g.max_exponent);
+                self.gamma2.set_theta(th2);
                 status |= Status::NONPHYSICAL;
             }
         }
-        let parameters = self.parameters();
+        status |= self.refresh();
+        let parameters = self.held;
         if parameters.k < 0.0 || parameters.lambda < 0.0 {
             status |= Status::NONPHYSICAL;
         }
@@ -230,20 +312,20 @@ impl Estimator for HuntCrossleyEstimator {
     }
 
     fn parameters(&self) -> HuntCrossleyParameters {
-        let th = self.gamma1.theta();
-        hunt_crossley_to_si(&self.config.scaling, th[0], th[1], self.exponent())
+        self.held
     }
 
     fn standard_errors(&self) -> HuntCrossleyParameters {
         let se1 = self.gamma1.standard_errors();
         let mut p = hunt_crossley_to_si(&self.config.scaling, se1[0], se1[1], self.exponent());
-        p.n = self.gamma2.standard_errors()[0];
+        p.n = self.gamma2.standard_errors()[1];
         p
     }
 
     fn reset(&mut self) {
         self.gamma1.reset();
         self.gamma2.reset();
+        self.held = hunt_crossley_to_si(&self.config.scaling, 0.0, 0.0, self.exponent());
     }
 }
 
@@ -284,7 +366,7 @@ impl Default for SingleStageHuntCrossleyConfig {
             scaling: Scaling::default(),
             rls: RlsConfig {
                 initial_covariance: 1.0e2,
-                ..RlsConfig::default()
+                ..HUNT_CROSSLEY_RLS
             },
             guards: HuntCrossleyGuards::default(),
             max_damping_ratio: 0.5,
@@ -327,6 +409,8 @@ pub struct SingleStageHuntCrossleyEstimator {
     rls: Rls<3>,
     min_depth: f32,
     min_force: f32,
+    /// Last finite SI parameters (held when a conversion overflows).
+    held: HuntCrossleyParameters,
 }
 
 impl SingleStageHuntCrossleyEstimator {
@@ -341,8 +425,20 @@ impl SingleStageHuntCrossleyEstimator {
             rls: Rls::try_with_initial(&config.rls, Vector3::new(0.0, 0.0, 1.0))?,
             min_depth: config.guards.min_depth_m / config.scaling.length_m,
             min_force: config.guards.min_force_n / config.scaling.force_n,
+            held: hunt_crossley_to_si(&config.scaling, 1.0, 0.0, 1.0),
             config,
         })
+    }
+
+    fn refresh(&mut self) -> Status {
+        let (k, lambda, n) = self.internal();
+        let si = hunt_crossley_to_si(&self.config.scaling, k, lambda, n);
+        if si.is_finite() {
+            self.held = si;
+            Status::empty()
+        } else {
+            Status::NONPHYSICAL
+        }
     }
 
     fn internal(&self) -> (f32, f32, f32) {
@@ -403,7 +499,8 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
                 status |= Status::NONPHYSICAL;
             }
         }
-        let parameters = self.parameters();
+        status |= self.refresh();
+        let parameters = self.held;
         if parameters.lambda < 0.0 {
             status |= Status::NONPHYSICAL;
         }
@@ -415,8 +512,7 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
     }
 
     fn parameters(&self) -> HuntCrossleyParameters {
-        let (k, lambda, n) = self.internal();
-        hunt_crossley_to_si(&self.config.scaling, k, lambda, n)
+        self.held
     }
 
     fn standard_errors(&self) -> HuntCrossleyParameters {
@@ -434,5 +530,6 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
 
     fn reset(&mut self) {
         self.rls.reset();
+        self.held = hunt_crossley_to_si(&self.config.scaling, 1.0, 0.0, 1.0);
     }
 }

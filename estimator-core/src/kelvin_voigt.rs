@@ -5,7 +5,7 @@
 use nalgebra::Vector2;
 
 use crate::error::ConfigError;
-use crate::estimator::{ContactSample, Estimate, Estimator, Scaling};
+use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
 use crate::rls::{Rls, RlsConfig};
 use crate::Status;
 
@@ -46,6 +46,8 @@ impl KelvinVoigtConfig {
 pub struct KelvinVoigtEstimator {
     config: KelvinVoigtConfig,
     rls: Rls<2>,
+    /// Last finite SI parameters (held when a conversion overflows).
+    held: KelvinVoigtParameters,
 }
 
 impl KelvinVoigtEstimator {
@@ -58,6 +60,7 @@ impl KelvinVoigtEstimator {
         Ok(KelvinVoigtEstimator {
             config,
             rls: Rls::try_new(&config.rls)?,
+            held: KelvinVoigtParameters::default(),
         })
     }
 
@@ -91,19 +94,25 @@ impl Estimator for KelvinVoigtEstimator {
                 .beta((f - predicted).abs() * s.force_n);
             status |= self.rls.update(&phi, f, beta).status;
         }
-        let parameters = self.parameters();
+        let si = self.parameters_si(self.rls.theta());
+        if si.kappa.is_finite() && si.lambda.is_finite() {
+            self.held = si;
+        } else {
+            status |= Status::NONPHYSICAL;
+        }
+        let parameters = self.held;
         if parameters.kappa < 0.0 || parameters.lambda < 0.0 {
             status |= Status::NONPHYSICAL;
         }
         Estimate {
             parameters,
-            predicted_force_n: predicted * s.force_n,
+            predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }
     }
 
     fn parameters(&self) -> KelvinVoigtParameters {
-        self.parameters_si(self.rls.theta())
+        self.held
     }
 
     fn standard_errors(&self) -> KelvinVoigtParameters {
@@ -112,5 +121,6 @@ impl Estimator for KelvinVoigtEstimator {
 
     fn reset(&mut self) {
         self.rls.reset();
+        self.held = KelvinVoigtParameters::default();
     }
 }

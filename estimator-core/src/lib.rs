@@ -43,5 +43,5 @@ pub mod zener;
 pub use any::{AnyEstimator, AnyParameters, ModelKind};
 pub use error::ConfigError;
 pub use estimator::{ContactSample, Estimate, Estimator, Scaling};
-pub use pipeline::{Pipeline, PipelineConfig, PipelineOutput, RawSample};
+pub use pipeline::{Pipeline, PipelineConfig, PipelineOutput, RawSample, SignalConditioning};
 pub use status::Status;

@@ -127,6 +127,15 @@ pub struct RlsConfig {
     pub max_covariance_trace_factor: f32,
     /// Forgetting factor policy (eq. 22 or eq. 24).
     pub forgetting: Forgetting,
+    /// Start-up forgetting: the factor actually used is min(β, β_s(h)) with
+    /// 1 − β_s(h) = (1 − `startup_forgetting`)·ρ^h, ρ = 1 − 1/`startup_samples`
+    /// (Ljung & Söderström's forgetting that tends to one, the paper's ref. \[23\]). Early
+    /// data, taken while coupled estimators (Hunt-Crossley Γ1/Γ2) still feed each other
+    /// wrong values, is forgotten quickly; later the policy's β alone applies. 1.0
+    /// disables it.
+    pub startup_forgetting: f32,
+    /// Time constant of the start-up forgetting, in updates (> 0).
+    pub startup_samples: f32,
 }
 
 impl Default for RlsConfig {
@@ -135,6 +144,8 @@ impl Default for RlsConfig {
             initial_covariance: 1.0e3,
             max_covariance_trace_factor: 1.0,
             forgetting: Forgetting::default(),
+            startup_forgetting: 1.0,
+            startup_samples: 1000.0,
         }
     }
 }
@@ -153,6 +164,13 @@ impl RlsConfig {
             |v| v >= 1.0,
             ">= 1",
         )?;
+        check(
+            "startup_forgetting",
+            self.startup_forgetting,
+            |b| b > 0.0 && b <= 1.0,
+            "(0, 1]",
+        )?;
+        positive("startup_samples", self.startup_samples)?;
         self.forgetting.validate()
     }
 }
@@ -179,6 +197,10 @@ pub struct Rls<const N: usize> {
     /// Exponentially weighted mean of the weighted a-posteriori squared residual, for
     /// parameter standard errors.
     residual_variance: f32,
+    /// 1 − β_s(h) of the start-up forgetting, and its decay ρ per update.
+    startup_gap: f32,
+    startup_gap0: f32,
+    startup_decay: f32,
 }
 
 /// Mixing rate of the residual-variance average (≈ 1000-sample memory).
@@ -213,6 +235,9 @@ impl<const N: usize> Rls<N> {
             initial_covariance: c,
             max_trace: config.max_covariance_trace_factor * c * N as f32,
             residual_variance: 0.0,
+            startup_gap: 1.0 - config.startup_forgetting,
+            startup_gap0: 1.0 - config.startup_forgetting,
+            startup_decay: 1.0 - 1.0 / config.startup_samples.max(1.0),
         })
     }
 
@@ -257,11 +282,12 @@ impl<const N: usize> Rls<N> {
         self.p = SMatrix::identity() * self.initial_covariance;
     }
 
-    /// Resets θ̂ to θ̂(0) and P to c·I.
+    /// Resets θ̂ to θ̂(0), P to c·I and restarts the start-up forgetting.
     pub fn reset(&mut self) {
         self.theta = self.theta0;
         self.reset_covariance();
         self.residual_variance = 0.0;
+        self.startup_gap = self.startup_gap0;
     }
 
     /// One update of eq. (23) with forgetting factor `beta` ∈ (0, 1].
@@ -287,7 +313,10 @@ impl<const N: usize> Rls<N> {
                 status: Status::NON_FINITE_INPUT,
             };
         }
-        let beta = beta.clamp(f32::MIN_POSITIVE, 1.0);
+        let beta = beta
+            .min(1.0 - self.startup_gap)
+            .clamp(f32::MIN_POSITIVE, 1.0);
+        self.startup_gap *= self.startup_decay;
         let mut status = Status::empty();
         let pphi = self.p * phi;
         let denom = beta / weight + phi.dot(&pphi);
@@ -321,8 +350,7 @@ impl<const N: usize> Rls<N> {
         }
         p /= beta_eff;
 
-        let diagonal_ok = (0..N).all(|i| p[(i, i)] > 0.0);
-        if !diagonal_ok || p.iter().any(|v| !v.is_finite()) {
+        if !is_positive_definite(&p) {
             self.reset_covariance();
             status |= Status::COVARIANCE_RESET;
         } else {
@@ -346,6 +374,35 @@ impl<const N: usize> Rls<N> {
     }
 }
 
+/// `true` when P is finite and positive definite: every pivot of its LDLᵀ factorisation is
+/// positive (relative to the diagonal, so that rounding-level pivots count as lost).
+/// O(N³/6) flops, no square roots; N ≤ 4 here.
+fn is_positive_definite<const N: usize>(p: &SMatrix<f32, N, N>) -> bool {
+    if p.iter().any(|v| !v.is_finite()) {
+        return false;
+    }
+    let mut l = SMatrix::<f32, N, N>::zeros();
+    let mut d = [0.0f32; N];
+    for j in 0..N {
+        let mut dj = p[(j, j)];
+        for k in 0..j {
+            dj -= l[(j, k)] * l[(j, k)] * d[k];
+        }
+        if !(dj > 1.0e-6 * p[(j, j)].abs() && dj > 0.0) {
+            return false;
+        }
+        d[j] = dj;
+        for i in j + 1..N {
+            let mut v = p[(i, j)];
+            for k in 0..j {
+                v -= l[(i, k)] * l[(j, k)] * d[k];
+            }
+            l[(i, j)] = v / dj;
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -354,8 +411,8 @@ mod tests {
     fn cfg(beta: f32) -> RlsConfig {
         RlsConfig {
             initial_covariance: 1.0e4,
-            max_covariance_trace_factor: 1.0,
             forgetting: Forgetting::Fixed { beta },
+            ..RlsConfig::default()
         }
     }
 

@@ -63,6 +63,7 @@ impl Default for ZenerConfig {
             scaling: Scaling::default(),
             rls: RlsConfig {
                 initial_covariance: 1.0e4,
+                forgetting: crate::rls::Forgetting::Fixed { beta: 0.9995 },
                 ..RlsConfig::default()
             },
         }
@@ -176,7 +177,7 @@ impl Estimator for ZenerEstimator {
         }
         Estimate {
             parameters: self.physical,
-            predicted_force_n: predicted * s.force_n,
+            predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }
     }
