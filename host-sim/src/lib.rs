@@ -1,1 +1,7 @@
-//! Host tools (work in progress).
+//! Host tools around the estimator core: the measured-record type and file readers, a
+//! simulated 1 kHz plant, the paper's experiments as scenarios, the per-sample pipeline
+//! run over records, plots, and the discrepancy workflow. The `host-sim` binary is the
+//! command-line front end.
+
+pub mod readers;
+pub mod record;

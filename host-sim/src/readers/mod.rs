@@ -1,0 +1,1 @@
+//! File readers (placeholder until the readers land).

@@ -1,0 +1,1 @@
+//! The measured record (placeholder until the readers land).
