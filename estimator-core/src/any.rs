@@ -166,6 +166,26 @@ fn hammerstein_any<const R: usize>(
     }
 }
 
+/// Settings applied to an estimator's default config by [`AnyEstimator::try_new`]: the
+/// values a host derives from the record at hand (units, noise-dependent guards).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct EstimatorSettings {
+    /// Internal units.
+    pub scaling: Scaling,
+    /// Replaces every RLS stage's forgetting policy when given.
+    pub forgetting: Option<crate::rls::Forgetting>,
+    /// Logarithm guard on δ \[m\] (Hunt-Crossley Γ2, Hammerstein Γ1); `None` keeps the
+    /// model's default, which is the paper's rig's (20 µm).
+    pub min_depth_m: Option<f32>,
+    /// Logarithm guard on F \[N\]; `None` keeps the rig's default (0.2 N Hunt-Crossley,
+    /// 0.1 N Hammerstein).
+    pub min_force_n: Option<f32>,
+    /// Hammerstein δ̇* \[m/s\]; `None` keeps the default (10 mm/s, for the paper's
+    /// 30 mm/s ramp).
+    pub min_depth_rate_m_per_s: Option<f32>,
+}
+
 /// Any estimator of this crate (the size of the largest variant).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[allow(clippy::large_enum_variant)]
@@ -186,34 +206,62 @@ pub enum AnyEstimator {
 
 impl AnyEstimator {
     /// Builds the default-configured estimator of `kind` with the given internal units
-    /// (see [`Scaling`]); guards given in SI in the defaults are rescaled with the force
-    /// and length units so that they keep their meaning relative to the signal.
+    /// (see [`Scaling`]) and the rig's default guards.
     ///
     /// # Errors
     /// [`ConfigError`] if `scaling` is invalid.
     pub fn try_default(kind: ModelKind, scaling: Scaling) -> Result<Self, ConfigError> {
+        Self::try_new(
+            kind,
+            &EstimatorSettings {
+                scaling,
+                ..EstimatorSettings::default()
+            },
+        )
+    }
+
+    /// Builds the estimator of `kind` from its default config with `settings` applied.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the bad setting.
+    pub fn try_new(kind: ModelKind, settings: &EstimatorSettings) -> Result<Self, ConfigError> {
+        let scaling = settings.scaling;
         scaling.validate()?;
-        let base = Scaling::default();
-        let lr = scaling.length_m / base.length_m;
-        let fr = scaling.force_n / base.force_n;
+        if let Some(f) = settings.forgetting {
+            f.validate()?;
+        }
+        let set = |rls: &mut crate::rls::RlsConfig| {
+            if let Some(f) = settings.forgetting {
+                rls.forgetting = f;
+            }
+        };
+        let guard = |value: Option<f32>, default: f32| value.unwrap_or(default);
         Ok(match kind {
             ModelKind::KelvinVoigt => {
-                AnyEstimator::KelvinVoigt(KelvinVoigtEstimator::try_new(KelvinVoigtConfig {
+                let mut c = KelvinVoigtConfig {
                     scaling,
                     ..KelvinVoigtConfig::default()
-                })?)
+                };
+                set(&mut c.rls);
+                AnyEstimator::KelvinVoigt(KelvinVoigtEstimator::try_new(c)?)
             }
-            ModelKind::Zener => AnyEstimator::Zener(ZenerEstimator::try_new(ZenerConfig {
-                scaling,
-                ..ZenerConfig::default()
-            })?),
+            ModelKind::Zener => {
+                let mut c = ZenerConfig {
+                    scaling,
+                    ..ZenerConfig::default()
+                };
+                set(&mut c.rls);
+                AnyEstimator::Zener(ZenerEstimator::try_new(c)?)
+            }
             ModelKind::HuntCrossley => {
                 let mut c = HuntCrossleyConfig {
                     scaling,
                     ..HuntCrossleyConfig::default()
                 };
-                c.guards.min_depth_m *= lr;
-                c.guards.min_force_n *= fr;
+                c.guards.min_depth_m = guard(settings.min_depth_m, c.guards.min_depth_m);
+                c.guards.min_force_n = guard(settings.min_force_n, c.guards.min_force_n);
+                set(&mut c.stage1);
+                set(&mut c.stage2);
                 AnyEstimator::HuntCrossley(HuntCrossleyEstimator::try_new(c)?)
             }
             ModelKind::HuntCrossleySingleStage => {
@@ -221,8 +269,9 @@ impl AnyEstimator {
                     scaling,
                     ..SingleStageHuntCrossleyConfig::default()
                 };
-                c.guards.min_depth_m *= lr;
-                c.guards.min_force_n *= fr;
+                c.guards.min_depth_m = guard(settings.min_depth_m, c.guards.min_depth_m);
+                c.guards.min_force_n = guard(settings.min_force_n, c.guards.min_force_n);
+                set(&mut c.rls);
                 AnyEstimator::HuntCrossleySingleStage(SingleStageHuntCrossleyEstimator::try_new(c)?)
             }
             ModelKind::Hammerstein1 | ModelKind::Hammerstein2 => {
@@ -230,9 +279,12 @@ impl AnyEstimator {
                     scaling,
                     ..HammersteinConfig::default()
                 };
-                c.min_depth_m *= lr;
-                c.min_force_n *= fr;
-                c.min_depth_rate_m_per_s *= lr;
+                c.min_depth_m = guard(settings.min_depth_m, c.min_depth_m);
+                c.min_force_n = guard(settings.min_force_n, c.min_force_n);
+                c.min_depth_rate_m_per_s =
+                    guard(settings.min_depth_rate_m_per_s, c.min_depth_rate_m_per_s);
+                set(&mut c.elastic_stage);
+                set(&mut c.filter_stage);
                 if kind == ModelKind::Hammerstein1 {
                     AnyEstimator::Hammerstein1(Hammerstein1::try_new(c)?)
                 } else {

@@ -37,10 +37,11 @@ pub mod models;
 pub mod monitor;
 pub mod pipeline;
 pub mod rls;
+pub mod sensors;
 pub mod status;
 pub mod zener;
 
-pub use any::{AnyEstimator, AnyParameters, ModelKind};
+pub use any::{AnyEstimator, AnyParameters, EstimatorSettings, ModelKind};
 pub use error::ConfigError;
 pub use estimator::{ContactSample, Estimate, Estimator, Scaling};
 pub use pipeline::{Pipeline, PipelineConfig, PipelineOutput, RawSample, SignalConditioning};

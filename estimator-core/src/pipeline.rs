@@ -198,13 +198,21 @@ impl<E: Estimator> Pipeline<E> {
             return self.output(status | Status::NO_CONTACT, ContactSample::default());
         }
 
+        // The contact point comes from the raw position at the raw force's onset (both
+        // current); with AllFiltered the depth is then measured on the filtered position,
+        // which lags exactly as the filtered force does. Taking the contact point from
+        // the filtered position instead would offset every depth by (impact speed × lag).
         let filtered = self.config.conditioning == SignalConditioning::AllFiltered;
-        let contact = self
-            .detector
-            .update(if filtered { x_f } else { position }, force);
+        let contact = self.detector.update(position, force);
         status |= contact.status;
+        let in_contact = contact.state == ContactState::InContact;
+        let depth_m = match (in_contact, filtered) {
+            (false, _) => 0.0,
+            (true, false) => contact.depth_m,
+            (true, true) => x_f - self.detector.contact_position_m(),
+        };
         let sample = ContactSample {
-            depth_m: contact.depth_m,
+            depth_m,
             depth_rate_m_per_s: v_f,
             force_n: if filtered {
                 f_f - self.detector.force_offset_n()

@@ -3,5 +3,12 @@
 //! run over records, plots, and the discrepancy workflow. The `host-sim` binary is the
 //! command-line front end.
 
+pub mod plant;
+pub mod plots;
 pub mod readers;
 pub mod record;
+pub mod report;
+pub mod runner;
+pub mod scenarios;
+pub mod setup;
+pub mod simulate;

@@ -1,1 +1,411 @@
-fn main() {}
+//! `host-sim`: the estimator core on the host — the paper's experiments on a simulated
+//! plant, the same per-sample pipeline over measured files, plots and summaries.
+//!
+//! Human-readable summaries go to stderr; data (`--json`) to stdout; files to `--out`.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use estimator_core::ModelKind;
+use host_sim::readers;
+use host_sim::record::{Format, Record};
+use host_sim::report::{self, ScenarioOutcome};
+use host_sim::runner::{self, RunResult};
+use host_sim::scenarios;
+use host_sim::setup::{self, Overrides};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Online contact-environment estimation (Biagiotti & Melchiorri) on the host.
+///
+/// Without a subcommand, runs the demo: every paper scenario on the simulated plant and
+/// `estimate` on the shipped real files, writing tables and plots to ./out.
+#[derive(Parser, Debug)]
+#[command(name = "host-sim", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a paper scenario on the simulated plant (log, estimates, summary, plots).
+    Simulate {
+        /// Scenario name, or `all`.
+        #[arg(long, default_value = "all")]
+        scenario: String,
+        /// Output folder.
+        #[arg(long, default_value = "out/scenarios")]
+        out: PathBuf,
+    },
+    /// Run the per-sample pipeline over measured files and report the parameters.
+    Estimate {
+        /// Model to estimate.
+        #[arg(long, value_enum)]
+        model: ModelArg,
+        /// Input files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// File format (auto-detected by default).
+        #[arg(long, default_value = "auto")]
+        format: String,
+        /// Print one JSON object per file to stdout.
+        #[arg(long)]
+        json: bool,
+        /// Output folder for estimates, summary and plots.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Contact-onset threshold [N] (default: from the record's noise and range).
+        #[arg(long)]
+        onset_threshold_n: Option<f64>,
+        /// State-variable filter bandwidth [Hz].
+        #[arg(long)]
+        bandwidth_hz: Option<f64>,
+        /// Free-space samples (at 1 kHz) averaged for the force offset.
+        #[arg(long)]
+        tare_samples: Option<u32>,
+    },
+    /// The main job: all scenarios and the shipped real files, with a summary.
+    Demo {
+        /// Output folder.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Folder with the shipped real files.
+        #[arg(long, default_value = "../shared/data")]
+        data: PathBuf,
+    },
+}
+
+/// Models on the command line.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum ModelArg {
+    KelvinVoigt,
+    Zener,
+    HuntCrossley,
+    HuntCrossleySingleStage,
+    Hammerstein,
+    Hammerstein2,
+}
+
+impl From<ModelArg> for ModelKind {
+    fn from(m: ModelArg) -> Self {
+        match m {
+            ModelArg::KelvinVoigt => ModelKind::KelvinVoigt,
+            ModelArg::Zener => ModelKind::Zener,
+            ModelArg::HuntCrossley => ModelKind::HuntCrossley,
+            ModelArg::HuntCrossleySingleStage => ModelKind::HuntCrossleySingleStage,
+            ModelArg::Hammerstein => ModelKind::Hammerstein1,
+            ModelArg::Hammerstein2 => ModelKind::Hammerstein2,
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => demo(Path::new("out"), Path::new("../shared/data")),
+        Some(Command::Demo { out, data }) => demo(&out, &data),
+        Some(Command::Simulate { scenario, out }) => simulate(&scenario, &out).map(|_| ()),
+        Some(Command::Estimate {
+            model,
+            files,
+            format,
+            json,
+            out,
+            onset_threshold_n,
+            bandwidth_hz,
+            tare_samples,
+        }) => {
+            let overrides = Overrides {
+                onset_threshold_n,
+                bandwidth_hz,
+                tare_samples,
+            };
+            estimate_files(
+                model.into(),
+                &files,
+                &format,
+                json,
+                out.as_deref(),
+                &overrides,
+            )
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn progress(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(what.to_string());
+    bar
+}
+
+fn simulate(name: &str, out: &Path) -> Result<Vec<ScenarioOutcome>> {
+    let list = if name == "all" {
+        scenarios::all()
+    } else {
+        match scenarios::by_name(name) {
+            Some(s) => vec![s],
+            None => bail!(
+                "unknown scenario `{name}`; known: all, {}",
+                scenarios::names().join(", ")
+            ),
+        }
+    };
+    let bar = progress(list.len() as u64, "scenarios");
+    let mut outcomes = Vec::new();
+    for s in &list {
+        bar.set_message(s.name);
+        let t0 = Instant::now();
+        let outcome = report::run_scenario(s, Some(out))?;
+        bar.suspend(|| {
+            eprintln!(
+                "{} ({}): {} [{:.1} s]",
+                s.name,
+                s.paper,
+                s.title,
+                t0.elapsed().as_secs_f64()
+            );
+            for e in &outcome.estimators {
+                eprintln!(
+                    "  {:28} {}  NRMSE {}  within 5 % from {}",
+                    e.model,
+                    if e.passes() { "ok  " } else { "OVER" },
+                    e.run
+                        .nrmse_percent
+                        .map_or("-".into(), |v| format!("{v:.2} %")),
+                    e.within_5_percent_from_s
+                        .map_or("never".into(), |t| format!("{t:.2} s")),
+                );
+            }
+        });
+        outcomes.push(outcome);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let table = report::scenario_table(&outcomes);
+    std::fs::create_dir_all(out)?;
+    report::write_text(&out.join("summary.md"), &table)?;
+    eprintln!("\n{table}\nwritten to {}", out.display());
+    Ok(outcomes)
+}
+
+/// Reads `path`, resampled to 1 kHz.
+fn load(path: &Path, format: &str) -> Result<(Record, Record)> {
+    let format = if format == "auto" {
+        None
+    } else {
+        Some(format.parse::<Format>().map_err(anyhow::Error::msg)?)
+    };
+    let native = readers::read(path, format)?;
+    let uniform = match native.sample_rate_hz() {
+        Some(rate) if (rate - 1000.0).abs() < 1e-6 * 1000.0 => native.clone(),
+        _ => native.resample(1000.0),
+    };
+    Ok((native, uniform))
+}
+
+/// Estimation on one file: the record, options used and the result.
+struct FileRun {
+    record: Record,
+    notes: Vec<String>,
+    result: RunResult,
+}
+
+fn estimate_file(
+    model: ModelKind,
+    path: &Path,
+    format: &str,
+    overrides: &Overrides,
+) -> Result<FileRun> {
+    let (native, record) = load(path, format)?;
+    let (options, mut notes) = setup::options_for_record(
+        model,
+        &record.position_m,
+        &record.force_n,
+        &native.force_n,
+        overrides,
+    );
+    notes.splice(0..0, native.notes.iter().cloned());
+    let bar = progress(record.len() as u64, "samples");
+    let result = runner::run(
+        &options,
+        &record.position_m,
+        &record.force_n,
+        &[],
+        &mut |i| bar.set_position(i as u64),
+    )
+    .with_context(|| format!("{}", path.display()))?;
+    bar.finish_and_clear();
+    Ok(FileRun {
+        record,
+        notes,
+        result,
+    })
+}
+
+fn estimate_files(
+    model: ModelKind,
+    files: &[PathBuf],
+    format: &str,
+    json: bool,
+    out: Option<&Path>,
+    overrides: &Overrides,
+) -> Result<()> {
+    let mut failures = 0;
+    for path in files {
+        match estimate_file(model, path, format, overrides) {
+            Ok(run) => {
+                print_run(path, &run);
+                if json {
+                    let summary = run.result.summary();
+                    let mut value = serde_json::to_value(&summary)?;
+                    value["file"] = serde_json::Value::String(path.display().to_string());
+                    value["notes"] = serde_json::to_value(&run.notes)?;
+                    println!("{}", serde_json::to_string(&value)?);
+                }
+                if let Some(out) = out {
+                    write_file_outputs(out, path, &run)?;
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                failures += 1;
+            }
+        }
+    }
+    if failures > 0 {
+        bail!("{failures} of {} files failed", files.len());
+    }
+    Ok(())
+}
+
+fn print_run(path: &Path, run: &FileRun) {
+    let r = &run.result;
+    eprintln!("{} — {}", path.display(), r.model.name());
+    for note in &run.notes {
+        eprintln!("  · {note}");
+    }
+    for ((name, value), (_, se)) in runner::named(&r.parameters)
+        .into_iter()
+        .zip(runner::named(&r.standard_errors))
+    {
+        eprintln!("  {name:>8} = {value:.5e} ± {se:.2e}");
+    }
+    eprintln!(
+        "  contact at {:.6e} m, force offset {:.4e} N, {} samples in contact, NRMSE {}, VAF {}",
+        r.contact_position_m,
+        r.force_offset_n,
+        r.contact_samples,
+        r.nrmse_percent.map_or("-".into(), |v| format!("{v:.2} %")),
+        r.vaf_percent.map_or("-".into(), |v| format!("{v:.1} %")),
+    );
+}
+
+fn stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or("record".into(), |s| s.to_string_lossy().into_owned())
+}
+
+fn write_file_outputs(out: &Path, path: &Path, run: &FileRun) -> Result<()> {
+    let dir = out.join(stem(path));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let label = run.result.model.name();
+    report::write_estimates(
+        &dir.join(format!("estimates_{label}.csv")),
+        &run.record.time_s,
+        &run.result,
+    )?;
+    let mut summary = serde_json::to_value(run.result.summary())?;
+    summary["file"] = serde_json::Value::String(path.display().to_string());
+    summary["notes"] = serde_json::to_value(&run.notes)?;
+    std::fs::write(
+        dir.join(format!("summary_{label}.json")),
+        serde_json::to_string_pretty(&summary)?,
+    )?;
+    report::plot_run(&dir, label, &run.record.time_s, &run.result, 1.0e-3, None)?;
+    Ok(())
+}
+
+/// The shipped real files and the models run on each.
+const REAL_FILES: &[(&str, &[ModelKind])] = &[
+    (
+        "nanoindentation/steel-hysitron.txt",
+        &[ModelKind::HuntCrossley, ModelKind::KelvinVoigt],
+    ),
+    (
+        "silicone-compression/ecoflex-00-10-A1.csv",
+        &[ModelKind::HuntCrossley, ModelKind::KelvinVoigt],
+    ),
+    (
+        "afm/brain-creep-jpk.txt",
+        &[ModelKind::HuntCrossley, ModelKind::Hammerstein1],
+    ),
+    (
+        "afm/cell-stress-relaxation.tab",
+        &[ModelKind::Hammerstein1, ModelKind::HuntCrossley],
+    ),
+];
+
+fn demo(out: &Path, data: &Path) -> Result<()> {
+    let t0 = Instant::now();
+    eprintln!("== Paper scenarios on the simulated plant");
+    simulate("all", &out.join("scenarios"))?;
+    eprintln!("\n== Measured files in {}", data.display());
+    let mut table = String::from(
+        "| file | model | parameters | NRMSE | contact at | offset |\n|---|---|---|---|---|---|\n",
+    );
+    for (file, models) in REAL_FILES {
+        let path = data.join(file);
+        for &model in *models {
+            match estimate_file(model, &path, "auto", &Overrides::default()) {
+                Ok(run) => {
+                    print_run(&path, &run);
+                    write_file_outputs(&out.join("files"), &path, &run)?;
+                    let params: Vec<String> = runner::named(&run.result.parameters)
+                        .into_iter()
+                        .map(|(n, v)| format!("{n} = {v:.4e}"))
+                        .collect();
+                    table.push_str(&format!(
+                        "| {file} | {} | {} | {} | {:.4e} m | {:.4e} N |\n",
+                        model.name(),
+                        params.join(", "),
+                        run.result
+                            .nrmse_percent
+                            .map_or("-".into(), |v| format!("{v:.2} %")),
+                        run.result.contact_position_m,
+                        run.result.force_offset_n
+                    ));
+                }
+                Err(e) => {
+                    eprintln!("{}: {e:#}", path.display());
+                    table.push_str(&format!(
+                        "| {file} | {} | error: {e} | | | |\n",
+                        model.name()
+                    ));
+                }
+            }
+        }
+    }
+    report::write_text(&out.join("files").join("summary.md"), &table)?;
+    eprintln!("\n{table}");
+    eprintln!(
+        "done in {:.1} s: scenario plots and tables in {}/scenarios, file results in {}/files",
+        t0.elapsed().as_secs_f64(),
+        out.display(),
+        out.display()
+    );
+    Ok(())
+}

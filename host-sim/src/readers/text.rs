@@ -1,0 +1,332 @@
+//! Helpers shared by the readers: byte decoding, physical lines, number cells, unit
+//! suffixes, and the sample accumulator that enforces the [`Record`] invariants.
+
+use std::path::Path;
+
+use super::error::{ReadError, ReadErrorKind};
+use crate::record::{Format, Record, Segment};
+
+/// Decodes bytes as UTF-8 when they are valid UTF-8 (dropping a byte-order mark), else
+/// as Latin-1 (ISO-8859-1: every byte is the char with that code point). Never fails.
+pub(crate) fn decode_utf8_or_latin1(bytes: &[u8]) -> String {
+    match std::str::from_utf8(bytes) {
+        Ok(s) => s.strip_prefix('\u{feff}').unwrap_or(s).to_owned(),
+        Err(_) => decode_latin1(bytes),
+    }
+}
+
+/// Decodes bytes as Latin-1 (ISO-8859-1): each byte becomes the char with that code
+/// point. Never fails.
+pub(crate) fn decode_latin1(bytes: &[u8]) -> String {
+    bytes.iter().map(|&b| char::from(b)).collect()
+}
+
+/// The physical lines of `text` as `(1-based line number, line)`, split on `\n` with a
+/// trailing `\r` removed (CRLF files).
+pub(crate) fn lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.split('\n')
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
+}
+
+/// Parses one numeric cell; the error names the line, the column and quotes the text.
+pub(crate) fn parse_cell(
+    path: &Path,
+    line: usize,
+    column: &str,
+    text: &str,
+) -> Result<f64, ReadError> {
+    let text = text.trim();
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(ReadError::at(
+            path,
+            line,
+            Some(column),
+            ReadErrorKind::NonFinite {
+                text: text.to_owned(),
+            },
+        )),
+        Err(_) => Err(ReadError::at(
+            path,
+            line,
+            Some(column),
+            ReadErrorKind::NonNumeric {
+                text: text.to_owned(),
+            },
+        )),
+    }
+}
+
+/// Indices of the `expected` columns in `header` (exact names); a missing one is a
+/// [`ReadErrorKind::MissingColumn`] naming it, all expected and all found columns.
+pub(crate) fn find_columns<const N: usize>(
+    path: &Path,
+    header_line: Option<usize>,
+    header: &[String],
+    expected: &[&str; N],
+) -> Result<[usize; N], ReadError> {
+    let mut indices = [0; N];
+    for (index, name) in indices.iter_mut().zip(expected) {
+        *index = header
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| ReadError {
+                path: path.to_path_buf(),
+                line: header_line,
+                field: Some((*name).to_owned()),
+                kind: ReadErrorKind::MissingColumn {
+                    expected: expected.iter().map(|s| (*s).to_owned()).collect(),
+                    found: header.to_vec(),
+                },
+            })?;
+    }
+    Ok(indices)
+}
+
+/// A column header of the form `Name (unit)` split into `("Name", "unit")`.
+pub(crate) fn split_unit(header: &str) -> Option<(&str, &str)> {
+    let inner = header.trim().strip_suffix(')')?;
+    let open = inner.rfind(" (")?;
+    Some((inner.get(..open)?, inner.get(open + 2..)?))
+}
+
+/// Finds the column `Name (unit)` whose name is `name` and whose unit is one of `units`
+/// (`(unit, factor to SI)`); returns its index, full header text and SI factor.
+pub(crate) fn find_unit_column<'h>(
+    header: &'h [String],
+    name: &str,
+    units: &[(&str, f64)],
+) -> Option<(usize, &'h str, f64)> {
+    header.iter().enumerate().find_map(|(i, h)| {
+        let (n, u) = split_unit(h)?;
+        // A UTF-8 `µ` read as Latin-1 is `Âµ`; the Greek `μ` is also used for micro.
+        let u = u.replace("Âµ", "µ").replace('μ', "µ");
+        let factor = units.iter().find(|(unit, _)| *unit == u)?.1;
+        (n == name).then_some((i, h.as_str(), factor))
+    })
+}
+
+/// Length units to metres.
+pub(crate) const LENGTH_UNITS: &[(&str, f64)] = &[
+    ("m", 1.0),
+    ("mm", 1e-3),
+    ("µm", 1e-6),
+    ("um", 1e-6),
+    ("nm", 1e-9),
+];
+/// Force units to newtons.
+pub(crate) const FORCE_UNITS: &[(&str, f64)] = &[
+    ("kN", 1e3),
+    ("N", 1.0),
+    ("mN", 1e-3),
+    ("µN", 1e-6),
+    ("uN", 1e-6),
+    ("nN", 1e-9),
+];
+/// Time units to seconds.
+pub(crate) const TIME_UNITS: &[(&str, f64)] = &[("s", 1.0), ("ms", 1e-3), ("min", 60.0)];
+
+/// Formats a value with at most 6 significant digits for notes (`0.061`, `1.0677`).
+/// Very small or large magnitudes use exponent notation (`1e-9`).
+pub(crate) fn short(x: f64) -> String {
+    let rounded = format!("{x:.5e}").parse::<f64>().unwrap_or(x);
+    let magnitude = rounded.abs();
+    if magnitude != 0.0 && !(1e-3..1e6).contains(&magnitude) {
+        format!("{rounded:e}")
+    } else {
+        rounded.to_string()
+    }
+}
+
+/// Accumulates samples, checking on the way that every value is finite and that time
+/// strictly increases, and builds the [`Record`].
+pub(crate) struct Samples<'p> {
+    path: &'p Path,
+    time_field: String,
+    position_field: String,
+    force_field: String,
+    time_s: Vec<f64>,
+    position_m: Vec<f64>,
+    force_n: Vec<f64>,
+    last_line: Option<usize>,
+}
+
+impl<'p> Samples<'p> {
+    /// `*_field` name the file's columns the values come from, for error messages.
+    pub(crate) fn new(
+        path: &'p Path,
+        time_field: &str,
+        position_field: &str,
+        force_field: &str,
+    ) -> Self {
+        Samples {
+            path,
+            time_field: time_field.to_owned(),
+            position_field: position_field.to_owned(),
+            force_field: force_field.to_owned(),
+            time_s: Vec::new(),
+            position_m: Vec::new(),
+            force_n: Vec::new(),
+            last_line: None,
+        }
+    }
+
+    /// Number of samples so far.
+    pub(crate) fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// Adds one sample read on `line` (values already in SI and in the record's sign
+    /// convention). Rejects non-finite results of the conversion and a time that does
+    /// not exceed the previous one.
+    pub(crate) fn push(
+        &mut self,
+        line: usize,
+        time_s: f64,
+        position_m: f64,
+        force_n: f64,
+    ) -> Result<(), ReadError> {
+        for (value, field) in [
+            (time_s, &self.time_field),
+            (position_m, &self.position_field),
+            (force_n, &self.force_field),
+        ] {
+            if !value.is_finite() {
+                return Err(ReadError::at(
+                    self.path,
+                    line,
+                    Some(field),
+                    ReadErrorKind::NonFinite {
+                        text: format!("{value} after conversion to SI"),
+                    },
+                ));
+            }
+        }
+        if let (Some(&previous), Some(previous_line)) = (self.time_s.last(), self.last_line) {
+            if time_s <= previous {
+                return Err(ReadError::at(
+                    self.path,
+                    line,
+                    Some(&self.time_field),
+                    ReadErrorKind::TimeNotIncreasing {
+                        value: time_s,
+                        previous,
+                        previous_line,
+                    },
+                ));
+            }
+        }
+        self.time_s.push(time_s);
+        self.position_m.push(position_m);
+        self.force_n.push(force_n);
+        self.last_line = Some(line);
+        Ok(())
+    }
+
+    /// The record; [`ReadErrorKind::NoData`] (at `header_line`) without samples,
+    /// [`ReadErrorKind::TooFewSamples`] with one.
+    pub(crate) fn finish(
+        self,
+        header_line: Option<usize>,
+        format: Format,
+        segments: Vec<Segment>,
+        notes: Vec<String>,
+    ) -> Result<Record, ReadError> {
+        match self.time_s.len() {
+            0 => Err(ReadError {
+                path: self.path.to_path_buf(),
+                line: header_line,
+                field: None,
+                kind: ReadErrorKind::NoData,
+            }),
+            1 => Err(ReadError {
+                path: self.path.to_path_buf(),
+                line: self.last_line,
+                field: None,
+                kind: ReadErrorKind::TooFewSamples { found: 1 },
+            }),
+            _ => Ok(Record {
+                time_s: self.time_s,
+                position_m: self.position_m,
+                force_n: self.force_n,
+                source: self.path.to_path_buf(),
+                format,
+                segments,
+                notes,
+            }),
+        }
+    }
+}
+
+/// Segments from per-sample labels: each maximal run of equal labels becomes one
+/// segment; samples labelled `None` belong to no segment.
+pub(crate) fn segments_from_labels(labels: &[Option<String>]) -> Vec<Segment> {
+    let mut segments: Vec<Segment> = Vec::new();
+    let mut current: Option<(usize, &str)> = None;
+    for (i, label) in labels.iter().enumerate() {
+        let label = label.as_deref();
+        match (current, label) {
+            (Some((_, name)), Some(l)) if name == l => {}
+            _ => {
+                if let Some((start, name)) = current.take() {
+                    segments.push(Segment {
+                        name: name.to_owned(),
+                        start,
+                        end: i,
+                    });
+                }
+                current = label.map(|l| (i, l));
+            }
+        }
+    }
+    if let Some((start, name)) = current {
+        segments.push(Segment {
+            name: name.to_owned(),
+            start,
+            end: labels.len(),
+        });
+    }
+    segments
+}
+
+/// The records of comma-separated `lines` as `(physical line, cells)`: blank lines and
+/// `#` comment lines skipped, cells trimmed, double-quoted cells unquoted (`""` is a
+/// quote). A record is one physical line (no line breaks inside quotes), which keeps the
+/// line numbers exact (the `csv` crate's record positions skip blank lines).
+pub(crate) fn csv_records<'a>(
+    lines: impl Iterator<Item = (usize, &'a str)>,
+) -> Vec<(usize, Vec<String>)> {
+    lines
+        .filter(|(_, l)| {
+            let t = l.trim();
+            !t.is_empty() && !t.starts_with('#')
+        })
+        .map(|(n, l)| (n, split_csv_line(l)))
+        .collect()
+}
+
+/// Splits one CSV line on commas, honouring double quotes.
+fn split_csv_line(line: &str) -> Vec<String> {
+    let mut cells = Vec::new();
+    let mut cell = String::new();
+    let mut chars = line.chars().peekable();
+    let mut in_quotes = false;
+    while let Some(c) = chars.next() {
+        match (c, in_quotes) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                chars.next();
+                cell.push('"');
+            }
+            ('"', true) => in_quotes = false,
+            ('"', false) if cell.trim().is_empty() => {
+                cell.clear();
+                in_quotes = true;
+            }
+            (',', false) => cells.push(std::mem::take(&mut cell).trim().to_owned()),
+            _ => cell.push(c),
+        }
+    }
+    cells.push(cell.trim().to_owned());
+    cells
+}

@@ -1,0 +1,149 @@
+//! Forward simulation of an estimated model on a measured motion: the force the model
+//! predicts for the recorded depth and depth rate, with the core's own contact models.
+//! Used for the fit quality (NRMSE) and for the plots' "estimated" curves.
+
+use estimator_core::models::{
+    ContactModel, ElasticResponse, Hammerstein, HuntCrossley, KelvinVoigt, Zener,
+};
+use estimator_core::AnyParameters;
+
+/// Builds the core contact model for `parameters` (at sample time `sample_time_s`), or
+/// `None` when the parameters are not physical (negative stiffness, unstable filter…).
+pub fn contact_model(
+    parameters: &AnyParameters,
+    sample_time_s: f32,
+) -> Option<Box<dyn ContactModel>> {
+    match *parameters {
+        AnyParameters::KelvinVoigt(p) => {
+            // A negative damping estimate is still a prediction; clamp only the stiffness.
+            Some(Box::new(KelvinVoigt {
+                kappa: p.kappa.max(0.0),
+                lambda: p.lambda,
+            }))
+        }
+        AnyParameters::HuntCrossley(p) => Some(Box::new(HuntCrossley {
+            k: p.k.max(0.0),
+            lambda: p.lambda,
+            n: p.n,
+            q: p.n,
+        })),
+        AnyParameters::Zener(p) => Zener::try_new(p.kappa1, p.kappa2, p.lambda, sample_time_s)
+            .ok()
+            .map(|z| Box::new(z) as Box<dyn ContactModel>),
+        AnyParameters::Hammerstein {
+            gamma1,
+            gamma2,
+            order,
+            a,
+            b,
+        } => {
+            let elastic = ElasticResponse::PowerLaw { gamma1, gamma2 };
+            match order {
+                1 => Hammerstein::<1>::try_new(elastic, [a[0]], [b[0]])
+                    .ok()
+                    .map(|h| Box::new(h) as Box<dyn ContactModel>),
+                2 => Hammerstein::<2>::try_new(elastic, a, b)
+                    .ok()
+                    .map(|h| Box::new(h) as Box<dyn ContactModel>),
+                _ => None,
+            }
+        }
+    }
+}
+
+/// Simulated force \[N\] for each (depth \[m\], depth rate \[m/s\]); the model restarts from
+/// rest whenever `in_contact` goes from false to true (a new contact). Out of contact
+/// the model still advances (relaxation continues) but its force is reported as 0.
+pub fn simulate_force(
+    parameters: &AnyParameters,
+    sample_time_s: f32,
+    depth_m: &[f64],
+    rate_m_per_s: &[f64],
+    in_contact: &[bool],
+) -> Option<Vec<f64>> {
+    let mut model = contact_model(parameters, sample_time_s)?;
+    let mut out = Vec::with_capacity(depth_m.len());
+    let mut was_in_contact = false;
+    for i in 0..depth_m.len() {
+        if in_contact[i] && !was_in_contact {
+            model.reset();
+        }
+        was_in_contact = in_contact[i];
+        let f = model.step(depth_m[i] as f32, rate_m_per_s[i] as f32);
+        out.push(if in_contact[i] { f64::from(f) } else { 0.0 });
+    }
+    Some(out)
+}
+
+/// Normalised RMS error of `model` against `measured`, in percent of the measured range
+/// (max − min): 100·sqrt(mean((m − s)²))/range. `None` on an empty or flat record.
+pub fn nrmse_percent(measured: &[f64], model: &[f64]) -> Option<f64> {
+    if measured.is_empty() || measured.len() != model.len() {
+        return None;
+    }
+    let (lo, hi) = measured
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    let range = hi - lo;
+    if range.is_nan() || range <= 0.0 {
+        return None;
+    }
+    let mse = measured
+        .iter()
+        .zip(model)
+        .map(|(m, s)| (m - s) * (m - s))
+        .sum::<f64>()
+        / measured.len() as f64;
+    Some(100.0 * mse.sqrt() / range)
+}
+
+/// Variance accounted for, percent: 100·(1 − var(m − s)/var(m)).
+pub fn vaf_percent(measured: &[f64], model: &[f64]) -> Option<f64> {
+    let n = measured.len();
+    if n < 2 || n != model.len() {
+        return None;
+    }
+    let var = |v: &mut dyn Iterator<Item = f64>| {
+        let xs: Vec<f64> = v.collect();
+        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
+        xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / xs.len() as f64
+    };
+    let vm = var(&mut measured.iter().copied());
+    if vm.is_nan() || vm <= 0.0 {
+        return None;
+    }
+    let vr = var(&mut measured.iter().zip(model).map(|(m, s)| m - s));
+    Some(100.0 * (1.0 - vr / vm))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use estimator_core::kelvin_voigt::KelvinVoigtParameters;
+
+    #[test]
+    fn kelvin_voigt_simulation_and_fit_metrics() {
+        let p = AnyParameters::KelvinVoigt(KelvinVoigtParameters {
+            kappa: 1000.0,
+            lambda: 10.0,
+        });
+        let depth: Vec<f64> = (0..100)
+            .map(|i| 1e-3 * (i as f64 / 10.0).sin().abs())
+            .collect();
+        let rate = vec![0.0; 100];
+        let contact = vec![true; 100];
+        let f = simulate_force(&p, 1e-3, &depth, &rate, &contact).unwrap();
+        for (d, f) in depth.iter().zip(&f) {
+            assert!((f - 1000.0 * d).abs() < 1e-6);
+        }
+        assert_eq!(nrmse_percent(&f, &f), Some(0.0));
+        assert!((vaf_percent(&f, &f).unwrap() - 100.0).abs() < 1e-9);
+        let shifted: Vec<f64> = f.iter().map(|v| v + 0.1).collect();
+        let range =
+            f.iter().cloned().fold(f64::MIN, f64::max) - f.iter().cloned().fold(f64::MAX, f64::min);
+        assert!((nrmse_percent(&f, &shifted).unwrap() - 10.0 / range).abs() < 1e-9);
+        assert_eq!(nrmse_percent(&[], &[]), None);
+    }
+}
