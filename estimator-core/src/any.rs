@@ -350,6 +350,28 @@ impl Estimator for AnyEstimator {
         dispatch!(self, e => e.standard_errors(), convert)
     }
 
+    fn onset_exponent(&self) -> Option<f32> {
+        match self {
+            AnyEstimator::KelvinVoigt(e) => e.onset_exponent(),
+            AnyEstimator::Zener(e) => e.onset_exponent(),
+            AnyEstimator::HuntCrossley(e) => e.onset_exponent(),
+            AnyEstimator::HuntCrossleySingleStage(e) => e.onset_exponent(),
+            AnyEstimator::Hammerstein1(e) => e.onset_exponent(),
+            AnyEstimator::Hammerstein2(e) => e.onset_exponent(),
+        }
+    }
+
+    fn onset_damping_ratio(&self) -> f32 {
+        match self {
+            AnyEstimator::KelvinVoigt(e) => e.onset_damping_ratio(),
+            AnyEstimator::Zener(e) => e.onset_damping_ratio(),
+            AnyEstimator::HuntCrossley(e) => e.onset_damping_ratio(),
+            AnyEstimator::HuntCrossleySingleStage(e) => e.onset_damping_ratio(),
+            AnyEstimator::Hammerstein1(e) => e.onset_damping_ratio(),
+            AnyEstimator::Hammerstein2(e) => e.onset_damping_ratio(),
+        }
+    }
+
     fn start_contact(&mut self) {
         match self {
             AnyEstimator::KelvinVoigt(e) => e.start_contact(),

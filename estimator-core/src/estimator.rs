@@ -123,6 +123,22 @@ pub trait Estimator {
     /// from σ̂²·P by the delta method; see [`crate::rls::Rls::standard_errors`].
     fn standard_errors(&self) -> Self::Parameters;
 
+    /// Exponent n of the power law F ∝ δⁿ this model's force follows from zero at the
+    /// onset of contact (current Hunt-Crossley n, Hammerstein γ2); `None` for models whose
+    /// force jumps at impact (Kelvin-Voigt, Zener: λ·δ̇). The pipeline hands it to the
+    /// contact detector to refine each contact point (see
+    /// [`crate::conditioning::ContactDetector::set_onset_exponent`]).
+    fn onset_exponent(&self) -> Option<f32> {
+        None
+    }
+
+    /// For a power-law onset with velocity-dependent damping, F = δⁿ·(k + λ·δ̇): the
+    /// current λ/k \[s/m\] (Hunt-Crossley), else 0. Helps the contact detector isolate
+    /// the elastic part of the force rise.
+    fn onset_damping_ratio(&self) -> f32 {
+        0.0
+    }
+
     /// Called by the pipeline when a new contact begins: estimators with memory of
     /// past samples (ARX forms) restart it from the undeformed state (δ = 0, F = 0).
     fn start_contact(&mut self) {}

@@ -223,6 +223,20 @@ impl<const R: usize, const NP: usize> HammersteinEstimator<R, NP> {
         libm::expf(th[0] + th[1] * libm::logf(depth))
     }
 
+    /// Stability of 1/A(z⁻¹) for the current θ2 (Jury conditions for R ≤ 2; higher
+    /// orders are not checked).
+    fn filter_is_stable(&self) -> bool {
+        let th = self.filter.theta() + self.nominal;
+        match R {
+            1 => (-th[0]).abs() < 1.0,
+            2 => {
+                let (a1, a2) = (-th[0], -th[1]);
+                a2.abs() < 1.0 && a1.abs() < 1.0 + a2
+            }
+            _ => true,
+        }
+    }
+
     fn regressor(force: &[f32; R], elastic: &[f32; R]) -> SVector<f32, NP> {
         SVector::from_fn(|i, _| if i < R { force[i] } else { elastic[i - R] })
     }
@@ -290,8 +304,18 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
         Self::push(&mut self.past_elastic, fe);
         Self::push(&mut self.past_force_lp, self.force_lp);
         Self::push(&mut self.past_elastic_lp, self.elastic_lp);
+        // The estimator stays unconstrained (projecting it distorted the relaxation
+        // estimate: the filter starts on the stability boundary, A = B = 1 − z⁻¹). But a
+        // relaxing material has its poles inside the unit circle, so an unstable filter
+        // estimate (creep under constant force drives the ARX towards an integrator) is
+        // never reported: the last stable a_i, b_i are held, γ1, γ2 still follow.
         match self.parameters_si() {
-            Some(p) => self.held = p,
+            Some(p) if self.filter_is_stable() => self.held = p,
+            Some(p) => {
+                self.held.gamma1 = p.gamma1;
+                self.held.gamma2 = p.gamma2;
+                status |= Status::NONPHYSICAL;
+            }
             None => status |= Status::NONPHYSICAL,
         }
 
@@ -304,6 +328,10 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
 
     fn parameters(&self) -> HammersteinParameters<R> {
         self.held
+    }
+
+    fn onset_exponent(&self) -> Option<f32> {
+        Some(self.held.gamma2)
     }
 
     fn standard_errors(&self) -> HammersteinParameters<R> {

@@ -315,6 +315,19 @@ impl Estimator for HuntCrossleyEstimator {
         self.held
     }
 
+    fn onset_exponent(&self) -> Option<f32> {
+        Some(self.held.n)
+    }
+
+    fn onset_damping_ratio(&self) -> f32 {
+        let p = self.held;
+        if p.k > 0.0 {
+            p.lambda / p.k
+        } else {
+            0.0
+        }
+    }
+
     fn standard_errors(&self) -> HuntCrossleyParameters {
         let se1 = self.gamma1.standard_errors();
         let mut p = hunt_crossley_to_si(&self.config.scaling, se1[0], se1[1], self.exponent());
@@ -513,6 +526,19 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
 
     fn parameters(&self) -> HuntCrossleyParameters {
         self.held
+    }
+
+    fn onset_exponent(&self) -> Option<f32> {
+        Some(self.held.n)
+    }
+
+    fn onset_damping_ratio(&self) -> f32 {
+        let p = self.held;
+        if p.k > 0.0 {
+            p.lambda / p.k
+        } else {
+            0.0
+        }
     }
 
     fn standard_errors(&self) -> HuntCrossleyParameters {

@@ -5,7 +5,7 @@
 use crate::error::{check, positive, ConfigError};
 
 /// Calibration of a load cell read through an ADC:
-/// F [N] = (code · V_ref / full_scale − offset_V) / sensitivity_V_per_N.
+/// F \[N\] = (code · V_ref / full_scale − offset_V) / sensitivity_V_per_N.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct LoadCellCalibration {

@@ -57,6 +57,13 @@ bitflags::bitflags! {
         /// The regressor carried too little excitation for this update to be informative
         /// (e.g. Γ2 with ln δ ≈ 0): the update was skipped.
         const LOW_EXCITATION = 1 << 15;
+        /// Contact has begun but its contact point is still being refined (the force has
+        /// not yet reached twice the onset threshold): depths are provisional, so the
+        /// estimator is held. Only for models with a power-law onset.
+        const CONTACT_PENDING = 1 << 16;
+        /// The caller paused estimation (e.g. to fit only the loading phase of a test, or
+        /// an operator command): the estimator was not updated, the last estimate is held.
+        const ESTIMATION_PAUSED = 1 << 17;
     }
 }
 

@@ -3,6 +3,8 @@
 //! run over records, plots, and the discrepancy workflow. The `host-sim` binary is the
 //! command-line front end.
 
+pub mod files;
+pub mod phases;
 pub mod plant;
 pub mod plots;
 pub mod readers;

@@ -10,12 +10,12 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use estimator_core::ModelKind;
-use host_sim::readers;
-use host_sim::record::{Format, Record};
+use host_sim::files::{estimate_file, FileRun, REAL_FILES};
+use host_sim::phases::Phase;
 use host_sim::report::{self, ScenarioOutcome};
-use host_sim::runner::{self, RunResult};
+use host_sim::runner;
 use host_sim::scenarios;
-use host_sim::setup::{self, Overrides};
+use host_sim::setup::Overrides;
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Online contact-environment estimation (Biagiotti & Melchiorri) on the host.
@@ -57,15 +57,19 @@ enum Command {
         /// Output folder for estimates, summary and plots.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Contact-onset threshold [N] (default: from the record's noise and range).
+        /// Contact-onset threshold (N) (default: from the record's noise and range).
         #[arg(long)]
         onset_threshold_n: Option<f64>,
-        /// State-variable filter bandwidth [Hz].
+        /// State-variable filter bandwidth (Hz).
         #[arg(long)]
         bandwidth_hz: Option<f64>,
         /// Free-space samples (at 1 kHz) averaged for the force offset.
         #[arg(long)]
         tare_samples: Option<u32>,
+        /// Update the estimator only during these phases (repeatable; detected from the
+        /// motion). Default: whenever in contact.
+        #[arg(long, value_enum)]
+        phase: Vec<Phase>,
     },
     /// The main job: all scenarios and the shipped real files, with a summary.
     Demo {
@@ -117,12 +121,14 @@ fn main() -> ExitCode {
             onset_threshold_n,
             bandwidth_hz,
             tare_samples,
+            phase,
         }) => {
             let overrides = Overrides {
                 onset_threshold_n,
                 bandwidth_hz,
                 tare_samples,
             };
+            let phases = (!phase.is_empty()).then_some(phase);
             estimate_files(
                 model.into(),
                 &files,
@@ -130,6 +136,7 @@ fn main() -> ExitCode {
                 json,
                 out.as_deref(),
                 &overrides,
+                phases,
             )
         }
     };
@@ -202,60 +209,6 @@ fn simulate(name: &str, out: &Path) -> Result<Vec<ScenarioOutcome>> {
     Ok(outcomes)
 }
 
-/// Reads `path`, resampled to 1 kHz.
-fn load(path: &Path, format: &str) -> Result<(Record, Record)> {
-    let format = if format == "auto" {
-        None
-    } else {
-        Some(format.parse::<Format>().map_err(anyhow::Error::msg)?)
-    };
-    let native = readers::read(path, format)?;
-    let uniform = match native.sample_rate_hz() {
-        Some(rate) if (rate - 1000.0).abs() < 1e-6 * 1000.0 => native.clone(),
-        _ => native.resample(1000.0),
-    };
-    Ok((native, uniform))
-}
-
-/// Estimation on one file: the record, options used and the result.
-struct FileRun {
-    record: Record,
-    notes: Vec<String>,
-    result: RunResult,
-}
-
-fn estimate_file(
-    model: ModelKind,
-    path: &Path,
-    format: &str,
-    overrides: &Overrides,
-) -> Result<FileRun> {
-    let (native, record) = load(path, format)?;
-    let (options, mut notes) = setup::options_for_record(
-        model,
-        &record.position_m,
-        &record.force_n,
-        &native.force_n,
-        overrides,
-    );
-    notes.splice(0..0, native.notes.iter().cloned());
-    let bar = progress(record.len() as u64, "samples");
-    let result = runner::run(
-        &options,
-        &record.position_m,
-        &record.force_n,
-        &[],
-        &mut |i| bar.set_position(i as u64),
-    )
-    .with_context(|| format!("{}", path.display()))?;
-    bar.finish_and_clear();
-    Ok(FileRun {
-        record,
-        notes,
-        result,
-    })
-}
-
 fn estimate_files(
     model: ModelKind,
     files: &[PathBuf],
@@ -263,18 +216,15 @@ fn estimate_files(
     json: bool,
     out: Option<&Path>,
     overrides: &Overrides,
+    phases: Option<Vec<Phase>>,
 ) -> Result<()> {
     let mut failures = 0;
     for path in files {
-        match estimate_file(model, path, format, overrides) {
+        match estimate_file(model, path, format, overrides, phases.clone()) {
             Ok(run) => {
                 print_run(path, &run);
                 if json {
-                    let summary = run.result.summary();
-                    let mut value = serde_json::to_value(&summary)?;
-                    value["file"] = serde_json::Value::String(path.display().to_string());
-                    value["notes"] = serde_json::to_value(&run.notes)?;
-                    println!("{}", serde_json::to_string(&value)?);
+                    println!("{}", serde_json::to_string(&run.summary_json(path)?)?);
                 }
                 if let Some(out) = out {
                     write_file_outputs(out, path, &run)?;
@@ -339,48 +289,35 @@ fn write_file_outputs(out: &Path, path: &Path, run: &FileRun) -> Result<()> {
     Ok(())
 }
 
-/// The shipped real files and the models run on each.
-const REAL_FILES: &[(&str, &[ModelKind])] = &[
-    (
-        "nanoindentation/steel-hysitron.txt",
-        &[ModelKind::HuntCrossley, ModelKind::KelvinVoigt],
-    ),
-    (
-        "silicone-compression/ecoflex-00-10-A1.csv",
-        &[ModelKind::HuntCrossley, ModelKind::KelvinVoigt],
-    ),
-    (
-        "afm/brain-creep-jpk.txt",
-        &[ModelKind::HuntCrossley, ModelKind::Hammerstein1],
-    ),
-    (
-        "afm/cell-stress-relaxation.tab",
-        &[ModelKind::Hammerstein1, ModelKind::HuntCrossley],
-    ),
-];
-
 fn demo(out: &Path, data: &Path) -> Result<()> {
     let t0 = Instant::now();
     eprintln!("== Paper scenarios on the simulated plant");
     simulate("all", &out.join("scenarios"))?;
     eprintln!("\n== Measured files in {}", data.display());
     let mut table = String::from(
-        "| file | model | parameters | NRMSE | contact at | offset |\n|---|---|---|---|---|---|\n",
+        "| file | model | fitted on | parameters | NRMSE | contact at | offset |\n|---|---|---|---|---|---|---|\n",
     );
     for (file, models) in REAL_FILES {
         let path = data.join(file);
-        for &model in *models {
-            match estimate_file(model, &path, "auto", &Overrides::default()) {
+        for &(model, phase) in *models {
+            match estimate_file(
+                model,
+                &path,
+                "auto",
+                &Overrides::default(),
+                phase.map(|p| vec![p]),
+            ) {
                 Ok(run) => {
                     print_run(&path, &run);
                     write_file_outputs(&out.join("files"), &path, &run)?;
                     let params: Vec<String> = runner::named(&run.result.parameters)
                         .into_iter()
-                        .map(|(n, v)| format!("{n} = {v:.4e}"))
+                        .map(|(n, v)| format!("{n} = {v:.6e}"))
                         .collect();
                     table.push_str(&format!(
-                        "| {file} | {} | {} | {} | {:.4e} m | {:.4e} N |\n",
+                        "| {file} | {} | {} | {} | {} | {:.4e} m | {:.4e} N |\n",
                         model.name(),
+                        phase.map_or("whole contact", |p| p.name()),
                         params.join(", "),
                         run.result
                             .nrmse_percent
@@ -392,7 +329,7 @@ fn demo(out: &Path, data: &Path) -> Result<()> {
                 Err(e) => {
                     eprintln!("{}: {e:#}", path.display());
                     table.push_str(&format!(
-                        "| {file} | {} | error: {e} | | | |\n",
+                        "| {file} | {} | | error: {e} | | | |\n",
                         model.name()
                     ));
                 }

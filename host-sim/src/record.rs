@@ -184,7 +184,7 @@ impl Record {
         uniform.then_some(1.0 / mean_dt)
     }
 
-    /// The record on a uniform grid `t_k = time_s[0] + k / rate_hz`, `k = 0..` up to the
+    /// The record on a uniform grid `t_k = time_s\[0\] + k / rate_hz`, `k = 0..` up to the
     /// last sample. See [`Record::try_resample`]; on a refused rate this returns an
     /// unchanged copy whose last note says why.
     pub fn resample(&self, rate_hz: f64) -> Record {
@@ -195,8 +195,8 @@ impl Record {
         })
     }
 
-    /// The record on a uniform grid `t_k = time_s[0] + k / rate_hz`, `k = 0..=K` with
-    /// `t_K ≤ time_s[last]`.
+    /// The record on a uniform grid `t_k = time_s\[0\] + k / rate_hz`, `k = 0..=K` with
+    /// `t_K ≤ time_s\[last\]`.
     ///
     /// Each grid point owns the target interval `[t_k − h/2, t_k + h/2)`, `h = 1/rate_hz`.
     /// Where that interval holds two or more source samples (source denser than the
@@ -204,7 +204,7 @@ impl Record {
     /// interpolation of the two source samples around `t_k`. The choice is made per grid
     /// point, so nonuniform records (AFM segments at 256 and 2048 Hz) are handled piece
     /// by piece. A segment `start..end` maps to the grid points whose time lies in
-    /// `[time_s[start], time_s[end])` (to the end of the grid for the last one).
+    /// `[time_s\[start\], time_s\[end\])` (to the end of the grid for the last one).
     ///
     /// # Errors
     /// [`ResampleError`] when `rate_hz` is not finite and positive, the record spans no

@@ -12,6 +12,7 @@ use estimator_core::{
 };
 use serde::Serialize;
 
+use crate::phases::{self, Phase, PhaseClassifier};
 use crate::simulate::{nrmse_percent, simulate_force, vaf_percent};
 
 /// What to run.
@@ -23,6 +24,9 @@ pub struct RunOptions {
     pub pipeline: PipelineConfig,
     /// Estimator settings (units, forgetting, guards).
     pub settings: EstimatorSettings,
+    /// Update the estimator only during these phases (e.g. loading only, for a test whose
+    /// hold and unloading follow other laws); `None` = whenever in contact.
+    pub estimate_during: Option<Vec<Phase>>,
 }
 
 impl RunOptions {
@@ -33,6 +37,7 @@ impl RunOptions {
             model,
             pipeline: recommended_pipeline(model),
             settings: EstimatorSettings::default(),
+            estimate_during: None,
         }
     }
 }
@@ -66,6 +71,8 @@ pub struct Trace {
     pub parameters: Vec<AnyParameters>,
     /// Status bits.
     pub status: Vec<u32>,
+    /// Phase of each sample (detected online from the contact state and δ̇).
+    pub phase: Vec<Phase>,
 }
 
 /// Result of a run.
@@ -96,6 +103,10 @@ pub struct RunResult {
     pub vaf_percent: Option<f64>,
     /// How many samples raised each status flag.
     pub status_counts: BTreeMap<String, usize>,
+    /// Parameters at the end of the last segment of each in-contact phase.
+    pub phase_parameters: BTreeMap<Phase, AnyParameters>,
+    /// The loading/unloading speed threshold v* used for the phases \[m/s\].
+    pub phase_speed_threshold_m_per_s: f64,
 }
 
 /// Why a run could not produce an estimate.
@@ -157,10 +168,19 @@ pub fn run(
         predicted_force_n: Vec::with_capacity(n),
         parameters: Vec::with_capacity(n),
         status: Vec::with_capacity(n),
+        phase: Vec::with_capacity(n),
     };
+    let dt = f64::from(options.pipeline.sample_time_s);
+    let phase_threshold = phases::speed_threshold(position_m, dt);
+    let mut classifier = PhaseClassifier::new(phase_threshold);
+    let mut phase = Phase::FreeSpace;
     let mut counts: BTreeMap<String, usize> = BTreeMap::new();
     let mut first_contact = None;
     for i in 0..n {
+        if let Some(allowed) = &options.estimate_during {
+            // The phase of the previous sample gates this one (the loop is causal).
+            pipeline.set_estimation_enabled(allowed.contains(&phase));
+        }
         let out = pipeline.step(&RawSample {
             position_m: position_m[i] as f32,
             force_n: force_n[i] as f32,
@@ -184,6 +204,8 @@ pub fn run(
             .push(f64::from(out.estimate.predicted_force_n));
         trace.parameters.push(out.estimate.parameters);
         trace.status.push(out.status.bits());
+        phase = classifier.classify(in_contact, f64::from(depth_rate_m_per_s));
+        trace.phase.push(phase);
         for (name, _) in out.status.iter_names() {
             *counts.entry(name.to_string()).or_default() += 1;
         }
@@ -200,7 +222,24 @@ pub fn run(
         });
     };
     let parameters = pipeline.estimator().parameters();
-    let (nrmse, vaf) = fit_quality(&parameters, options.pipeline.sample_time_s, &trace);
+    // Judge the fit where the model was fitted: in contact and, if restricted, in the
+    // phases the estimator saw.
+    let judged: Vec<bool> = (0..n)
+        .map(|i| {
+            trace.contact[i]
+                && options
+                    .estimate_during
+                    .as_ref()
+                    .is_none_or(|allowed| allowed.contains(&trace.phase[i]))
+        })
+        .collect();
+    let (nrmse, vaf) = fit_quality_on(&parameters, options.pipeline.sample_time_s, &trace, &judged);
+    let mut phase_parameters = BTreeMap::new();
+    for (p, _, end) in phases::segments(&trace.phase) {
+        if matches!(p, Phase::Loading | Phase::Hold | Phase::Unloading) {
+            phase_parameters.insert(p, trace.parameters[end - 1]);
+        }
+    }
     Ok(RunResult {
         model: options.model,
         parameters,
@@ -213,6 +252,8 @@ pub fn run(
         nrmse_percent: nrmse,
         vaf_percent: vaf,
         status_counts: counts,
+        phase_parameters,
+        phase_speed_threshold_m_per_s: phase_threshold,
         trace,
     })
 }
@@ -223,6 +264,30 @@ pub fn fit_quality(
     sample_time_s: f32,
     trace: &Trace,
 ) -> (Option<f64>, Option<f64>) {
+    fit_quality_from(parameters, sample_time_s, trace, 0)
+}
+
+/// As [`fit_quality`], over the in-contact samples from index `from` on (the model is
+/// simulated from the start so that its state is right at `from`).
+pub fn fit_quality_from(
+    parameters: &AnyParameters,
+    sample_time_s: f32,
+    trace: &Trace,
+    from: usize,
+) -> (Option<f64>, Option<f64>) {
+    let judged: Vec<bool> = (0..trace.contact.len())
+        .map(|i| i >= from && trace.contact[i])
+        .collect();
+    fit_quality_on(parameters, sample_time_s, trace, &judged)
+}
+
+/// NRMSE and VAF over the samples marked in `judged` (the model runs on every sample).
+pub fn fit_quality_on(
+    parameters: &AnyParameters,
+    sample_time_s: f32,
+    trace: &Trace,
+    judged: &[bool],
+) -> (Option<f64>, Option<f64>) {
     let Some(simulated) = simulate_force(
         parameters,
         sample_time_s,
@@ -232,11 +297,10 @@ pub fn fit_quality(
     ) else {
         return (None, None);
     };
-    let (measured, model): (Vec<f64>, Vec<f64>) = trace
-        .contact
+    let (measured, model): (Vec<f64>, Vec<f64>) = judged
         .iter()
         .zip(trace.force_n.iter().zip(&simulated))
-        .filter(|(c, _)| **c)
+        .filter(|(j, _)| **j)
         .map(|(_, (m, s))| (*m, *s))
         .unzip();
     (
@@ -285,6 +349,10 @@ pub struct RunSummary {
     pub contact_samples: usize,
     /// Samples per status flag.
     pub status_counts: BTreeMap<String, usize>,
+    /// Parameters at the end of the last loading / hold / unloading segment.
+    pub phases: BTreeMap<String, BTreeMap<String, f64>>,
+    /// Phases during which the estimator was updated (all in contact when absent).
+    pub estimated_during: Option<Vec<String>>,
 }
 
 impl RunResult {
@@ -307,6 +375,20 @@ impl RunResult {
             force_noise_n: self.force_noise_n,
             contact_samples: self.contact_samples,
             status_counts: self.status_counts.clone(),
+            phases: self
+                .phase_parameters
+                .iter()
+                .map(|(p, params)| {
+                    (
+                        p.name().to_string(),
+                        named(params)
+                            .into_iter()
+                            .map(|(k, v)| (k.to_string(), v))
+                            .collect(),
+                    )
+                })
+                .collect(),
+            estimated_during: None,
         }
     }
 

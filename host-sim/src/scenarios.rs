@@ -83,14 +83,15 @@ pub struct Check {
     pub estimate: f64,
     /// Relative error |estimate − truth|/|truth|.
     pub relative_error: f64,
-    /// Tolerance on the relative error stated for this scenario.
-    pub tolerance: f64,
+    /// Tolerance on the relative error stated for this scenario; `None` for quantities
+    /// that are reported but not asserted (see [`Truth::checks`]).
+    pub tolerance: Option<f64>,
 }
 
 impl Check {
-    /// Within tolerance.
+    /// Within tolerance (always true for a reported-only quantity).
     pub fn passes(&self) -> bool {
-        self.relative_error <= self.tolerance
+        self.tolerance.is_none_or(|t| self.relative_error <= t)
     }
 }
 
@@ -100,7 +101,14 @@ fn check(name: &str, truth: f64, estimate: f64, tolerance: f64) -> Check {
         truth,
         estimate,
         relative_error: ((estimate - truth) / truth).abs(),
-        tolerance,
+        tolerance: Some(tolerance),
+    }
+}
+
+fn reported(name: &str, truth: f64, estimate: f64) -> Check {
+    Check {
+        tolerance: None,
+        ..check(name, truth, estimate, 0.0)
     }
 }
 
@@ -136,22 +144,43 @@ impl Truth {
         }
     }
 
-    /// Checks of `estimate` against this truth with `tolerance` (relative) per check. For
-    /// the Hammerstein model the well-posed quantities are compared: γ2, the elastic force
-    /// F_e at 1, 2 and 3 mm (γ1 in the paper's N/mm^γ2 is F_e at 1 mm; γ1 in SI is F_e at
-    /// 1 m, far outside the data, and gets twice the tolerance), the relaxation rate
-    /// ν = −ln(−a1)/T and the relaxed fraction c0 = (1 + b1)/(1 + a1).
+    /// Checks of `estimate` against this truth with `tolerance` (relative) per check.
+    ///
+    /// Power-law coefficients are compared where the data are: a coefficient in SI is
+    /// the force at a depth of 1 m (k in N/m^n, γ1 in N/m^γ2), 200-1000 times deeper than
+    /// any sample, so it carries the exponent's error times ln(1 m/1 mm) ≈ 7. The paper
+    /// reports them in mN and mm, i.e. at 1 mm. So the asserted checks are the exponent,
+    /// the elastic force and the damping coefficient at 1 mm (Hunt-Crossley: k·δⁿ and
+    /// λ·δⁿ; Hammerstein: F_e at 1, 2 and 3 mm), and for the Hammerstein filter the
+    /// relaxation rate ν = −ln(−a1)/T and the relaxed fraction c0 = (1 + b1)/(1 + a1).
+    /// The SI coefficients are reported, not asserted (the core's convergence tests, where
+    /// the contact point is exact, assert them within 2 %).
     pub fn checks(&self, estimate: &AnyParameters, tolerance: f64) -> Vec<Check> {
         match (self, estimate) {
             (Truth::KelvinVoigt(t), AnyParameters::KelvinVoigt(e)) => vec![
                 check("kappa", t.kappa.into(), e.kappa.into(), tolerance),
                 check("lambda", t.lambda.into(), e.lambda.into(), tolerance),
             ],
-            (Truth::HuntCrossley(t), AnyParameters::HuntCrossley(e)) => vec![
-                check("k", t.k.into(), e.k.into(), tolerance),
-                check("lambda", t.lambda.into(), e.lambda.into(), tolerance),
-                check("n", t.n.into(), e.n.into(), tolerance),
-            ],
+            (Truth::HuntCrossley(t), AnyParameters::HuntCrossley(e)) => {
+                let at_1mm = |c: f32, n: f32| f64::from(c) * 1e-3f64.powf(f64::from(n));
+                vec![
+                    check("n", t.n.into(), e.n.into(), tolerance),
+                    check(
+                        "k·(1 mm)^n [N]",
+                        at_1mm(t.k, t.n),
+                        at_1mm(e.k, e.n),
+                        tolerance,
+                    ),
+                    check(
+                        "lambda·(1 mm)^n [N·s/m]",
+                        at_1mm(t.lambda, t.n),
+                        at_1mm(e.lambda, e.n),
+                        tolerance,
+                    ),
+                    reported("k (SI)", t.k.into(), e.k.into()),
+                    reported("lambda (SI)", t.lambda.into(), e.lambda.into()),
+                ]
+            }
             (
                 Truth::Polyurethane,
                 AnyParameters::Hammerstein {
@@ -192,12 +221,7 @@ impl Truth {
                     c0(a[0], b[0]),
                     tolerance,
                 ));
-                v.push(check(
-                    "gamma1 (SI)",
-                    tg1.into(),
-                    (*gamma1).into(),
-                    2.0 * tolerance,
-                ));
+                v.push(reported("gamma1 (SI)", tg1.into(), (*gamma1).into()));
                 v
             }
             _ => Vec::new(),
@@ -272,7 +296,7 @@ pub fn all() -> Vec<Scenario> {
             materials: || vec![MaterialChange { at_s: 0.0, model: boxed(plastic()) }],
             truth: Truth::HuntCrossley(plastic()),
             truth_from_s: 0.0,
-            estimators: vec![spec(ModelKind::HuntCrossley, 0.05), spec(ModelKind::HuntCrossleySingleStage, 0.05)],
+            estimators: vec![spec(ModelKind::HuntCrossley, 0.03), spec(ModelKind::HuntCrossleySingleStage, 0.08)],
         },
         Scenario {
             name: "gel-kv",
@@ -283,7 +307,8 @@ pub fn all() -> Vec<Scenario> {
             materials: || vec![MaterialChange { at_s: 0.0, model: boxed(gel_kelvin_voigt()) }],
             truth: Truth::KelvinVoigt(gel_kelvin_voigt()),
             truth_from_s: 0.0,
-            estimators: vec![spec(ModelKind::KelvinVoigt, 0.05)],
+            // Worst over plant seeds 1-40: 1.1 % (λ).
+            estimators: vec![spec(ModelKind::KelvinVoigt, 0.02)],
         },
         Scenario {
             name: "gel-hc",
@@ -294,7 +319,8 @@ pub fn all() -> Vec<Scenario> {
             materials: || vec![MaterialChange { at_s: 0.0, model: boxed(gel_hunt_crossley()) }],
             truth: Truth::HuntCrossley(gel_hunt_crossley()),
             truth_from_s: 0.0,
-            estimators: vec![spec(ModelKind::HuntCrossley, 0.05), spec(ModelKind::HuntCrossleySingleStage, 0.15)],
+            // Worst over plant seeds 1-40: 3.2 % (double stage), 7.8 % (single stage).
+            estimators: vec![spec(ModelKind::HuntCrossley, 0.04), spec(ModelKind::HuntCrossleySingleStage, 0.08)],
         },
         Scenario {
             name: "gel-to-plastic",
@@ -321,7 +347,7 @@ pub fn all() -> Vec<Scenario> {
                     o.settings.forgetting = Some(adaptive_forgetting(0.3));
                     o
                 },
-                tolerance: 0.05,
+                tolerance: 0.03,
             }],
         },
         Scenario {
@@ -338,7 +364,7 @@ pub fn all() -> Vec<Scenario> {
             materials: || vec![MaterialChange { at_s: 0.0, model: boxed(polyurethane()) }],
             truth: Truth::Polyurethane,
             truth_from_s: 0.0,
-            estimators: vec![spec(ModelKind::Hammerstein1, 0.05)],
+            estimators: vec![spec(ModelKind::Hammerstein1, 0.10)],
         },
     ]
 }

@@ -50,12 +50,14 @@ fn range(x: &[f64]) -> f64 {
 
 /// Run options for `model` on a record sampled at 1 kHz (`position_m`, `force_n`), with
 /// the reasons for each choice. `native_force_n` is the force at the file's own rate
-/// (before resampling), whose sample-to-sample noise is not smoothed by interpolation.
+/// `native_rate_hz` (before resampling), whose sample-to-sample noise is not smoothed by
+/// interpolation.
 pub fn options_for_record(
     model: ModelKind,
     position_m: &[f64],
     force_n: &[f64],
     native_force_n: &[f64],
+    native_rate_hz: f64,
     overrides: &Overrides,
 ) -> (RunOptions, Vec<String>) {
     let mut notes = Vec::new();
@@ -88,35 +90,49 @@ pub fn options_for_record(
         options.pipeline.contact.tare_samples = tare.max(1);
         notes.push(format!("tare over the first {tare} samples (given)"));
     }
-    if let Some(bw) = overrides.bandwidth_hz {
-        options.pipeline.velocity_filter.bandwidth_hz = bw as f32;
-        notes.push(format!("state-variable filter bandwidth {bw} Hz (given)"));
-    }
-    // The contact detector's offset tracking must not follow slow force changes inside a
-    // file's pre-contact drift: keep it, it only acts while the force is near zero.
+    // The filter cannot see beyond the file's own Nyquist rate: resampling to 1 kHz adds
+    // no information, so the bandwidth follows the native rate (a tenth of it).
+    let default_bw = f64::from(options.pipeline.velocity_filter.bandwidth_hz);
+    let bandwidth = overrides
+        .bandwidth_hz
+        .unwrap_or_else(|| default_bw.min(native_rate_hz / 10.0));
+    options.pipeline.velocity_filter.bandwidth_hz = bandwidth as f32;
+    notes.push(format!(
+        "state-variable filter bandwidth {bandwidth:.3} Hz ({})",
+        if overrides.bandwidth_hz.is_some() {
+            "given".to_string()
+        } else {
+            format!("min({default_bw} Hz, a tenth of the native {native_rate_hz:.1} Hz)")
+        }
+    ));
+    // Loading speed v*: 10 % of the 99th-percentile speed. Drift of the force offset is
+    // only learned while the probe is slower than v*/2: a slow compression of a soft
+    // sample is not drift.
+    let v_star = crate::phases::speed_threshold(position_m, 1.0e-3);
+    // A slow test may take seconds to load from half to twice the onset threshold.
+    options.pipeline.contact.refinement_timeout_samples = (position_m.len() / 10).max(500) as u32;
+    options.pipeline.contact.tare_tracking_max_speed_m_per_s = (0.5 * v_star) as f32;
+    notes.push(format!(
+        "force offset tracked only while the probe moves slower than {:.3e} m/s",
+        0.5 * v_star
+    ));
 
     // Logarithm guards relative to the record: 2 % of the force range, 1 % of the depth.
     let min_force = (0.02 * force_range).max(3.0 * sigma);
     let min_depth = 0.01 * depth_range;
-    // Hammerstein δ̇*: a third of the fastest loading rate seen (the paper: 10 of 30 mm/s).
-    let max_rate = position_m
-        .windows(2)
-        .map(|w| (w[1] - w[0]) / 1e-3)
-        .fold(0.0f64, f64::max);
+    // Hammerstein δ̇*: the loading-speed threshold v* (the paper: 10 mm/s for a 30 mm/s
+    // ramp). Per-sample differences would be dominated by position noise.
     options.settings = EstimatorSettings {
         scaling,
         forgetting: None,
         min_depth_m: Some(min_depth as f32),
         min_force_n: Some(min_force as f32),
-        min_depth_rate_m_per_s: Some((max_rate / 3.0) as f32),
+        min_depth_rate_m_per_s: Some(v_star as f32),
     };
     notes.push(format!(
         "logarithm guards: F > {min_force:.3e} N, δ > {min_depth:.3e} m{}",
         if matches!(model, ModelKind::Hammerstein1 | ModelKind::Hammerstein2) {
-            format!(
-                "; elastic stage while dδ/dt > {:.3e} m/s (a third of the fastest loading)",
-                max_rate / 3.0
-            )
+            format!("; elastic stage while dδ/dt > {v_star:.3e} m/s (the loading-speed threshold)")
         } else {
             String::new()
         }

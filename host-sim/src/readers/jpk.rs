@@ -29,7 +29,7 @@ struct Block {
     units: Option<(usize, Vec<String>)>,
     spring_constant: Option<f64>,
     declared_points: Option<(usize, usize)>,
-    /// `[time, height, force]` column indices and k, resolved at the first data row.
+    /// `\[time, height, force\]` column indices and k, resolved at the first data row.
     resolved: Option<([usize; 3], f64)>,
 }
 

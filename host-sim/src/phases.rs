@@ -1,0 +1,184 @@
+//! Phases of a contact test, detected from the motion (never given): free space before the
+//! first contact, loading (δ̇ > v*), hold (|δ̇| < v*/2), unloading (δ̇ < −v*), release (out of
+//! contact after a contact). v* comes from the record's own speeds, and the hysteresis
+//! between v*/2 and v* keeps noise from flickering the phase.
+
+use serde::Serialize;
+
+/// A phase of a contact test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Phase {
+    /// Out of contact, before the first contact.
+    FreeSpace,
+    /// In contact, penetration increasing.
+    Loading,
+    /// In contact, penetration (nearly) constant.
+    Hold,
+    /// In contact, penetration decreasing.
+    Unloading,
+    /// Out of contact after a contact.
+    Release,
+}
+
+impl Phase {
+    /// All phases, in test order.
+    pub const ALL: [Phase; 5] = [
+        Phase::FreeSpace,
+        Phase::Loading,
+        Phase::Hold,
+        Phase::Unloading,
+        Phase::Release,
+    ];
+
+    /// kebab-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::FreeSpace => "free-space",
+            Phase::Loading => "loading",
+            Phase::Hold => "hold",
+            Phase::Unloading => "unloading",
+            Phase::Release => "release",
+        }
+    }
+}
+
+/// Online phase classifier (one sample at a time, as a 1 kHz loop would).
+#[derive(Debug, Clone)]
+pub struct PhaseClassifier {
+    threshold_m_per_s: f64,
+    current: Phase,
+    seen_contact: bool,
+}
+
+impl PhaseClassifier {
+    /// Classifier with loading/unloading speed threshold v* \[m/s\].
+    pub fn new(threshold_m_per_s: f64) -> Self {
+        PhaseClassifier {
+            threshold_m_per_s: threshold_m_per_s.abs(),
+            current: Phase::FreeSpace,
+            seen_contact: false,
+        }
+    }
+
+    /// Phase of a sample from the contact state and the penetration rate \[m/s\].
+    pub fn classify(&mut self, in_contact: bool, rate_m_per_s: f64) -> Phase {
+        let v = self.threshold_m_per_s;
+        self.current = if !in_contact {
+            if self.seen_contact {
+                Phase::Release
+            } else {
+                Phase::FreeSpace
+            }
+        } else {
+            self.seen_contact = true;
+            let was_in_contact = matches!(
+                self.current,
+                Phase::Loading | Phase::Hold | Phase::Unloading
+            );
+            if rate_m_per_s > v {
+                Phase::Loading
+            } else if rate_m_per_s < -v {
+                Phase::Unloading
+            } else if rate_m_per_s.abs() < 0.5 * v {
+                Phase::Hold
+            } else if was_in_contact {
+                // Between v*/2 and v*: keep the phase (hysteresis).
+                self.current
+            } else if rate_m_per_s > 0.0 {
+                Phase::Loading
+            } else {
+                Phase::Unloading
+            }
+        };
+        self.current
+    }
+}
+
+/// v* for a record: 10 % of its 99th-percentile speed (robust to spikes), from positions
+/// \[m\] sampled every `sample_time_s`.
+pub fn speed_threshold(position_m: &[f64], sample_time_s: f64) -> f64 {
+    if position_m.len() < 3 {
+        return 0.0;
+    }
+    // Speeds over 5-sample spans, to stay above quantisation noise.
+    let span = 5.min(position_m.len() - 1);
+    let mut speeds: Vec<f64> = position_m
+        .windows(span + 1)
+        .map(|w| ((w[span] - w[0]) / (span as f64 * sample_time_s)).abs())
+        .collect();
+    speeds.sort_by(f64::total_cmp);
+    let p99 = speeds[((speeds.len() - 1) as f64 * 0.99) as usize];
+    0.1 * p99
+}
+
+/// Runs of equal phase: (phase, start, end exclusive).
+pub fn segments(phases: &[Phase]) -> Vec<(Phase, usize, usize)> {
+    let mut out: Vec<(Phase, usize, usize)> = Vec::new();
+    for (i, &p) in phases.iter().enumerate() {
+        match out.last_mut() {
+            Some(last) if last.0 == p => last.2 = i + 1,
+            _ => out.push((p, i, i + 1)),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn indentation_cycle_is_segmented() {
+        // Approach, load at 1 unit/s, hold, unload, retract.
+        let mut c = PhaseClassifier::new(0.1);
+        let mut phases = Vec::new();
+        for _ in 0..10 {
+            phases.push(c.classify(false, 1.0));
+        }
+        for _ in 0..20 {
+            phases.push(c.classify(true, 1.0));
+        }
+        for i in 0..20 {
+            // Creep: slow drift with noise inside the band.
+            phases.push(c.classify(true, 0.02 * (i % 3) as f64));
+        }
+        for _ in 0..20 {
+            phases.push(c.classify(true, -1.0));
+        }
+        for _ in 0..5 {
+            phases.push(c.classify(false, -1.0));
+        }
+        let seg: Vec<Phase> = segments(&phases).into_iter().map(|s| s.0).collect();
+        assert_eq!(
+            seg,
+            vec![
+                Phase::FreeSpace,
+                Phase::Loading,
+                Phase::Hold,
+                Phase::Unloading,
+                Phase::Release
+            ]
+        );
+    }
+
+    #[test]
+    fn hysteresis_keeps_noise_from_flickering() {
+        let mut c = PhaseClassifier::new(1.0);
+        c.classify(true, 2.0);
+        // Between v*/2 and v*: stays loading.
+        for _ in 0..10 {
+            assert_eq!(c.classify(true, 0.7), Phase::Loading);
+        }
+        assert_eq!(c.classify(true, 0.3), Phase::Hold);
+    }
+
+    #[test]
+    fn speed_threshold_is_a_tenth_of_the_fast_motion() {
+        let x: Vec<f64> = (0..1000)
+            .map(|i| if i < 500 { i as f64 * 1e-6 } else { 500e-6 })
+            .collect();
+        let v = speed_threshold(&x, 1e-3);
+        assert!((v - 1e-4).abs() < 1e-6, "{v}");
+    }
+}

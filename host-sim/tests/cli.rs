@@ -1,0 +1,263 @@
+//! The `host-sim` binary as a user runs it: JSON output, exit codes, and the exact error
+//! text for each kind of bad input (file, line and field named; never a panic).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn host_sim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn data(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(relative)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Runs `estimate` on a bad file: exit code 1, no panic, and the error line.
+fn estimate_error(path: &Path) -> String {
+    let o = host_sim(&[
+        "estimate",
+        "--model",
+        "kelvin-voigt",
+        path.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err.lines()
+        .find(|l| l.starts_with("error: "))
+        .unwrap_or_default()
+        .to_string()
+}
+
+#[test]
+fn estimate_json_has_the_documented_shape() {
+    let file = data("afm/cell-stress-relaxation.tab");
+    let o = host_sim(&[
+        "estimate",
+        "--model",
+        "hammerstein",
+        "--json",
+        file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8(o.stdout.clone()).unwrap();
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["model"], "hammerstein");
+    for name in [
+        "gamma1",
+        "gamma2",
+        "a1",
+        "b1",
+        "contact_position_m",
+        "force_offset_n",
+    ] {
+        assert!(v["parameters"][name].is_f64(), "{name} missing in {v}");
+    }
+    assert!(v["nrmse_percent"].as_f64().unwrap() < 5.0);
+    assert!(v["contact_position_m"].is_f64() && v["force_offset_n"].is_f64());
+    // Human summary on stderr, data only on stdout.
+    assert!(stderr(&o).contains("gamma2"));
+    assert_eq!(stdout.trim().lines().count(), 1);
+}
+
+#[test]
+fn estimate_writes_csv_json_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = data("nanoindentation/steel-hysitron.txt");
+    let o = host_sim(&[
+        "estimate",
+        "--model",
+        "hunt-crossley-single-stage",
+        "--phase",
+        "loading",
+        "--out",
+        dir.path().to_str().unwrap(),
+        file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("steel-hysitron");
+    for f in [
+        "estimates_hunt-crossley-single-stage.csv",
+        "summary_hunt-crossley-single-stage.json",
+        "hysteresis_hunt-crossley-single-stage.png",
+        "hysteresis_hunt-crossley-single-stage.svg",
+        "power_hunt-crossley-single-stage.png",
+        "parameters_hunt-crossley-single-stage.svg",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+}
+
+#[test]
+fn simulate_one_scenario_writes_its_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = host_sim(&[
+        "simulate",
+        "--scenario",
+        "gel-kv",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("gel-kv");
+    for f in [
+        "log.csv",
+        "estimates_kelvin-voigt.csv",
+        "summary.json",
+        "hysteresis_kelvin-voigt.png",
+        "power_kelvin-voigt.svg",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    assert!(dir.path().join("summary.md").exists());
+    let o = host_sim(&[
+        "simulate",
+        "--scenario",
+        "no-such",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("unknown scenario `no-such`; known: all, plastic-hc"));
+}
+
+#[test]
+fn error_empty_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, "empty.csv", "");
+    assert_eq!(
+        estimate_error(&path),
+        format!("error: {}: the file is empty", path.display())
+    );
+}
+
+#[test]
+fn error_wrong_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        &dir,
+        "cols.csv",
+        "time_s,position_m,load\n0,0,0\n0.001,0,0\n",
+    );
+    assert_eq!(
+        estimate_error(&path),
+        format!(
+            "error: {}:1: field `force_n`: missing column; expected `time_s`, `position_m`, `force_n`; found `time_s`, `position_m`, `load`",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn error_non_numeric_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        &dir,
+        "text.csv",
+        "time_s,position_m,force_n\n0,0,0\n0.001,0,abc\n",
+    );
+    assert_eq!(
+        estimate_error(&path),
+        format!(
+            "error: {}:3: field `force_n`: not a number: \"abc\"",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn error_nan_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        &dir,
+        "nan.csv",
+        "time_s,position_m,force_n\n0,0,0\n0.001,NaN,0\n",
+    );
+    assert_eq!(
+        estimate_error(&path),
+        format!(
+            "error: {}:3: field `position_m`: not finite: \"NaN\"",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn error_time_going_backwards() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        &dir,
+        "time.csv",
+        "time_s,position_m,force_n\n0,0,0\n0.002,0,0\n0.001,0,0\n",
+    );
+    assert_eq!(
+        estimate_error(&path),
+        format!(
+            "error: {}:4: field `time_s`: time not strictly increasing: 0.001 s here, 0.002 s on line 3",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn error_file_without_contact() {
+    let dir = tempfile::tempdir().unwrap();
+    // One second of free space: noise only.
+    let mut text = String::from("time_s,position_m,force_n\n");
+    for i in 0..1000 {
+        let noise = ((i * 7919) % 13) as f64 * 1e-3 - 6e-3;
+        text.push_str(&format!(
+            "{},{},{}\n",
+            i as f64 * 1e-3,
+            i as f64 * 1e-6,
+            noise
+        ));
+    }
+    let path = write(&dir, "free.csv", &text);
+    let line = estimate_error(&path);
+    assert!(
+        line.starts_with(&format!(
+            "error: {}: no contact found: the force never rose above the onset threshold",
+            path.display()
+        )),
+        "{line}"
+    );
+}
+
+#[test]
+fn error_missing_file_and_unknown_format() {
+    let o = host_sim(&[
+        "estimate",
+        "--model",
+        "kelvin-voigt",
+        "/nonexistent/log.csv",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("/nonexistent/log.csv: I/O error"),
+        "{}",
+        stderr(&o)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, "mystery.txt", "hello\nworld\n");
+    let line = estimate_error(&path);
+    assert!(
+        line.contains("mystery.txt") && line.contains("format"),
+        "{line}"
+    );
+}
