@@ -39,6 +39,7 @@ pub mod pipeline;
 pub mod rls;
 pub mod sensors;
 pub mod status;
+pub mod telemetry;
 pub mod zener;
 
 pub use any::{AnyEstimator, AnyParameters, EstimatorSettings, ModelKind};

@@ -14,3 +14,4 @@ pub mod runner;
 pub mod scenarios;
 pub mod setup;
 pub mod simulate;
+pub mod telemetry;

@@ -71,6 +71,12 @@ enum Command {
         #[arg(long, value_enum)]
         phase: Vec<Phase>,
     },
+    /// Decode a captured telemetry stream (the firmware's UART, or QEMU's serial file)
+    /// into one JSON object per frame on stdout.
+    Telemetry {
+        /// Captured bytes.
+        file: PathBuf,
+    },
     /// The main job: all scenarios and the shipped real files, with a summary.
     Demo {
         /// Output folder.
@@ -112,6 +118,7 @@ fn main() -> ExitCode {
         None => demo(Path::new("out"), Path::new("../shared/data")),
         Some(Command::Demo { out, data }) => demo(&out, &data),
         Some(Command::Simulate { scenario, out }) => simulate(&scenario, &out).map(|_| ()),
+        Some(Command::Telemetry { file }) => decode_telemetry(&file),
         Some(Command::Estimate {
             model,
             files,
@@ -147,6 +154,28 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn decode_telemetry(path: &Path) -> Result<()> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: reading", path.display()))?;
+    let decoded = host_sim::telemetry::decode(&bytes);
+    for frame in &decoded.frames {
+        println!("{}", serde_json::to_string(frame)?);
+    }
+    for (offset, error) in &decoded.errors {
+        eprintln!("{}: byte {offset}: {error}", path.display());
+    }
+    eprintln!(
+        "{}: {} frames, {} missing by sequence number, {} undecodable",
+        path.display(),
+        decoded.frames.len(),
+        decoded.missing,
+        decoded.errors.len()
+    );
+    if decoded.frames.is_empty() {
+        bail!("{}: no telemetry frame decoded", path.display());
+    }
+    Ok(())
 }
 
 fn progress(len: u64, what: &str) -> ProgressBar {

@@ -1,2 +1,0 @@
-//! Firmware placeholder: the RTIC application lands with the firmware issue.
-#![no_std]
