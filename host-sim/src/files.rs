@@ -32,7 +32,9 @@ pub fn load(path: &Path, format: &str) -> Result<(Record, Record)> {
     let native = readers::read(path, format)?;
     let uniform = match native.sample_rate_hz() {
         Some(rate) if (rate - 1000.0).abs() < 1e-6 * 1000.0 => native.clone(),
-        _ => native.resample(1000.0),
+        _ => native
+            .try_resample(1000.0)
+            .with_context(|| format!("{}: cannot resample to 1 kHz", path.display()))?,
     };
     Ok((native, uniform))
 }

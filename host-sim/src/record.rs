@@ -142,12 +142,34 @@ pub enum ResampleError {
         /// The cap.
         max: usize,
     },
+    /// The grid would hold more than [`Record::MAX_UPSAMPLING`] points per source sample:
+    /// the record is too sparse for the rate, and interpolation would invent the signal.
+    #[error(
+        "field `time_s`: {samples} samples over {span_s} s are too sparse to resample at {rate_hz} Hz ({points} grid points, more than {max_ratio} per sample)"
+    )]
+    TooSparse {
+        /// The requested rate \[Hz\].
+        rate_hz: f64,
+        /// The record's time span \[s\].
+        span_s: f64,
+        /// Source samples.
+        samples: usize,
+        /// Grid points the rate would give.
+        points: usize,
+        /// The cap on grid points per source sample.
+        max_ratio: usize,
+    },
 }
 
 impl Record {
     /// Largest grid [`Record::try_resample`] builds (guards against a mistyped rate
     /// exhausting memory).
-    pub const MAX_RESAMPLED_LEN: usize = 100_000_000;
+    pub const MAX_RESAMPLED_LEN: usize = 20_000_000;
+
+    /// Largest number of grid points per source sample [`Record::try_resample`] accepts.
+    /// The slowest real format (AFM segments at 256 Hz) is 4 points per sample at 1 kHz;
+    /// a few samples spread over hours are not a signal to interpolate.
+    pub const MAX_UPSAMPLING: usize = 100;
 
     /// Relative tolerance on sampling intervals for [`Record::sample_rate_hz`].
     pub const UNIFORM_TOLERANCE: f64 = 1e-3;
@@ -208,7 +230,8 @@ impl Record {
     ///
     /// # Errors
     /// [`ResampleError`] when `rate_hz` is not finite and positive, the record spans no
-    /// time, or the grid would exceed [`Record::MAX_RESAMPLED_LEN`] samples.
+    /// time, the grid would exceed [`Record::MAX_RESAMPLED_LEN`] samples, or hold more
+    /// than [`Record::MAX_UPSAMPLING`] points per source sample.
     pub fn try_resample(&self, rate_hz: f64) -> Result<Record, ResampleError> {
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(ResampleError::InvalidRate(rate_hz));
@@ -237,6 +260,15 @@ impl Record {
             });
         }
         let n_new = last_k as usize + 1;
+        if n_new > Self::MAX_UPSAMPLING * n_src {
+            return Err(ResampleError::TooSparse {
+                rate_hz,
+                span_s,
+                samples: n_src,
+                points: n_new,
+                max_ratio: Self::MAX_UPSAMPLING,
+            });
+        }
         let h = 1.0 / rate_hz;
         let src_t = &self.time_s[..n_src];
         let src_x = &self.position_m[..n_src];
