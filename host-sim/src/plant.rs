@@ -6,12 +6,19 @@
 //! firmware sees: a load cell behind a 12-bit ADC (offset, gain, noise, quantisation,
 //! saturation) and a quadrature encoder behind a 16-bit wrapping counter. All parameters
 //! are in one serialisable config with units in the names; a seed makes a run repeatable.
+//!
+//! [`Faults`] injects what goes wrong on a real rig, for robustness tests: NaN or infinite
+//! force readings, dropped samples (at given times or at a rate), the ADC driven beyond
+//! full scale, encoder glitches (a jump of N counts, for one sample or kept), on top of
+//! what the plant does anyway (load-cell offset drift, `LoadCellConfig::offset_drift_v_per_s`;
+//! the 16-bit counter wrapping every 65.536 mm of travel; contact loss and re-contact from
+//! the trajectory; abrupt material changes, [`MaterialChange`]).
 
 use estimator_core::models::ContactModel;
 use estimator_core::sensors::{EncoderUnwrapper, LoadCellCalibration};
 use estimator_core::RawSample;
 use rand::rngs::StdRng;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
@@ -161,18 +168,18 @@ impl Trajectory {
                 if t <= first.0 {
                     return first.1;
                 }
-                for w in points.windows(2) {
-                    let (t0, d0) = w[0];
-                    let (t1, d1) = w[1];
-                    if t <= t1 {
-                        return if t1 > t0 {
-                            d0 + (d1 - d0) * (t - t0) / (t1 - t0)
-                        } else {
-                            d1
-                        };
-                    }
+                // First waypoint at or after t (binary search: long recorded motions
+                // have one waypoint per sample).
+                let k = points.partition_point(|p| p.0 < t);
+                if k >= points.len() {
+                    return points.last().map_or(0.0, |p| p.1);
                 }
-                points.last().map_or(0.0, |p| p.1)
+                let ((t0, d0), (t1, d1)) = (points[k - 1], points[k]);
+                if t1 > t0 {
+                    d0 + (d1 - d0) * (t - t0) / (t1 - t0)
+                } else {
+                    d1
+                }
             }
             Trajectory::Sequence { parts } => {
                 let part = parts
@@ -184,6 +191,236 @@ impl Trajectory {
             }
         }
     }
+}
+
+/// A span of samples hit by a fault: from `start_s` \[s\] for `duration_s` \[s\], at least
+/// one sample (a duration of 0 hits the one sample nearest `start_s`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FaultWindow {
+    /// Start \[s\].
+    pub start_s: f64,
+    /// Length \[s\] (≥ 0).
+    pub duration_s: f64,
+}
+
+impl FaultWindow {
+    /// One sample at `at_s` \[s\].
+    pub fn at(at_s: f64) -> Self {
+        FaultWindow {
+            start_s: at_s,
+            duration_s: 0.0,
+        }
+    }
+
+    /// The indices of the samples (of sample time `sample_time_s` \[s\]) in the window;
+    /// times before 0 clamp to sample 0.
+    pub fn samples(&self, sample_time_s: f64) -> std::ops::Range<u64> {
+        let first = (self.start_s / sample_time_s).round();
+        let count = (self.duration_s / sample_time_s).round().max(1.0);
+        // `as` saturates: negative times give sample 0.
+        first as u64..(first + count) as u64
+    }
+
+    fn is_valid(&self) -> bool {
+        self.start_s.is_finite() && self.duration_s.is_finite() && self.duration_s >= 0.0
+    }
+}
+
+/// An encoder glitch: from `at_s` \[s\] the counter reads `counts` more than the true
+/// position (negative: fewer) for `duration_s` \[s\] — one sample time for a spike (a
+/// noise burst on the A/B lines that the counter later undoes), longer than the run for a
+/// slip (counts lost for good: the measured position stays offset). The motor's position
+/// loop reads the same counter, so a slip also moves the probe by the opposite amount.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EncoderGlitch {
+    /// When the glitch starts \[s\].
+    pub at_s: f64,
+    /// Extra counts read (after ×4 decoding).
+    pub counts: i32,
+    /// How long the extra counts stay \[s\] (≥ one sample).
+    pub duration_s: f64,
+}
+
+/// Faults injected into the acquisition, for robustness tests; the default injects none.
+///
+/// The NaN, infinite and dropped samples reach the estimator as a [`RawSample`] holding
+/// NaN or ∞ (the firmware marks a sample it could not acquire with NaN); the motor's own
+/// loop keeps running on the sensor codes. ADC overload and encoder glitches act on the
+/// raw codes, which both the acquisition and the motor's loop read. Random faults draw
+/// from their own generator (`seed`), so adding them does not change the sensor noise.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Faults {
+    /// Samples whose force reads NaN (a corrupted conversion); the position is good.
+    pub nan_force: Vec<FaultWindow>,
+    /// Samples whose force reads +∞.
+    pub infinite_force: Vec<FaultWindow>,
+    /// Samples that were not acquired at all: position and force NaN.
+    pub dropped: Vec<FaultWindow>,
+    /// Probability \[per sample\] that a sample's force reads NaN.
+    pub nan_force_probability_per_sample: f64,
+    /// Probability \[per sample\] that a sample is dropped.
+    pub dropped_probability_per_sample: f64,
+    /// Windows during which the load cell is driven beyond the ADC's range (a knock, an
+    /// electrical spike): the ADC reads its top code, flagged as saturated.
+    pub adc_overload: Vec<FaultWindow>,
+    /// Encoder glitches.
+    pub encoder_glitches: Vec<EncoderGlitch>,
+    /// Seed of the random faults.
+    pub seed: u64,
+}
+
+impl Faults {
+    /// Checks windows (finite, duration ≥ 0) and probabilities (in \[0, 1\]).
+    ///
+    /// # Errors
+    /// Naming the bad field.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        for (name, windows) in [
+            ("nan_force", &self.nan_force),
+            ("infinite_force", &self.infinite_force),
+            ("dropped", &self.dropped),
+            ("adc_overload", &self.adc_overload),
+        ] {
+            anyhow::ensure!(
+                windows.iter().all(FaultWindow::is_valid),
+                "faults.{name}: start_s and duration_s must be finite, duration_s >= 0"
+            );
+        }
+        anyhow::ensure!(
+            self.encoder_glitches
+                .iter()
+                .all(|g| g.at_s.is_finite() && g.duration_s.is_finite() && g.duration_s >= 0.0),
+            "faults.encoder_glitches: at_s and duration_s must be finite, duration_s >= 0"
+        );
+        for (name, p) in [
+            (
+                "nan_force_probability_per_sample",
+                self.nan_force_probability_per_sample,
+            ),
+            (
+                "dropped_probability_per_sample",
+                self.dropped_probability_per_sample,
+            ),
+        ] {
+            anyhow::ensure!(
+                (0.0..=1.0).contains(&p),
+                "faults.{name} must be in [0, 1], got {p}"
+            );
+        }
+        Ok(())
+    }
+}
+
+/// [`Faults`] as sorted sample ranges, built once per plant, so that each sample's
+/// look-up is a binary search (an hour's soak injects hundreds of faults).
+#[derive(Debug, Clone, Default)]
+struct FaultSchedule {
+    nan_force: Vec<(u64, u64)>,
+    infinite_force: Vec<(u64, u64)>,
+    dropped: Vec<(u64, u64)>,
+    adc_overload: Vec<(u64, u64)>,
+    /// (first sample, extra encoder counts from it on), samples increasing.
+    encoder_offset: Vec<(u64, i64)>,
+    nan_force_probability: f64,
+    dropped_probability: f64,
+}
+
+impl FaultSchedule {
+    fn new(faults: &Faults, sample_time_s: f64) -> Self {
+        let range = |w: &FaultWindow| {
+            let r = w.samples(sample_time_s);
+            (r.start, r.end)
+        };
+        let merged = |windows: &[FaultWindow]| {
+            let mut r: Vec<(u64, u64)> = windows.iter().map(range).collect();
+            r.sort_unstable();
+            let mut out: Vec<(u64, u64)> = Vec::with_capacity(r.len());
+            for (a, b) in r {
+                match out.last_mut() {
+                    Some(last) if a <= last.1 => last.1 = last.1.max(b),
+                    _ => out.push((a, b)),
+                }
+            }
+            out
+        };
+        let mut changes: Vec<(u64, i64)> = Vec::new();
+        for g in &faults.encoder_glitches {
+            let (a, b) = range(&FaultWindow {
+                start_s: g.at_s,
+                duration_s: g.duration_s,
+            });
+            changes.push((a, i64::from(g.counts)));
+            changes.push((b, -i64::from(g.counts)));
+        }
+        changes.sort_unstable_by_key(|c| c.0);
+        let mut total = 0;
+        let encoder_offset = changes
+            .into_iter()
+            .map(|(step, delta)| {
+                total += delta;
+                (step, total)
+            })
+            .collect();
+        FaultSchedule {
+            nan_force: merged(&faults.nan_force),
+            infinite_force: merged(&faults.infinite_force),
+            dropped: merged(&faults.dropped),
+            adc_overload: merged(&faults.adc_overload),
+            encoder_offset,
+            nan_force_probability: faults.nan_force_probability_per_sample,
+            dropped_probability: faults.dropped_probability_per_sample,
+        }
+    }
+
+    fn hit(ranges: &[(u64, u64)], step: u64) -> bool {
+        let i = ranges.partition_point(|r| r.0 <= step);
+        i > 0 && step < ranges[i - 1].1
+    }
+
+    /// Extra encoder counts at sample `step`.
+    fn encoder_offset_counts(&self, step: u64) -> i64 {
+        let i = self.encoder_offset.partition_point(|c| c.0 <= step);
+        if i == 0 {
+            0
+        } else {
+            self.encoder_offset[i - 1].1
+        }
+    }
+
+    fn adc_overloaded(&self, step: u64) -> bool {
+        Self::hit(&self.adc_overload, step)
+    }
+
+    /// The acquisition fault of sample `step`, drawing the random ones from `rng`.
+    fn sample_fault(&self, step: u64, rng: &mut StdRng) -> SampleFault {
+        let mut draw = |p: f64| p > 0.0 && rng.random::<f64>() < p;
+        let dropped_at_random = draw(self.dropped_probability);
+        let nan_at_random = draw(self.nan_force_probability);
+        if dropped_at_random || Self::hit(&self.dropped, step) {
+            SampleFault::Dropped
+        } else if nan_at_random || Self::hit(&self.nan_force, step) {
+            SampleFault::NanForce
+        } else if Self::hit(&self.infinite_force, step) {
+            SampleFault::InfiniteForce
+        } else {
+            SampleFault::None
+        }
+    }
+}
+
+/// What the acquisition got wrong on one sample (see [`Faults`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SampleFault {
+    /// A good sample.
+    #[default]
+    None,
+    /// The force reads NaN.
+    NanForce,
+    /// The force reads +∞.
+    InfiniteForce,
+    /// Not acquired: position and force NaN.
+    Dropped,
 }
 
 /// Everything that defines a plant run, with units.
@@ -207,6 +444,9 @@ pub struct PlantConfig {
     pub trajectory: Trajectory,
     /// Seed of the sensor noise.
     pub seed: u64,
+    /// Injected faults (none by default).
+    #[serde(default)]
+    pub faults: Faults,
 }
 
 impl Default for PlantConfig {
@@ -242,6 +482,7 @@ impl Default for PlantConfig {
                 points: vec![(0.0, -1.0e-3)],
             },
             seed: 1,
+            faults: Faults::default(),
         }
     }
 }
@@ -278,6 +519,8 @@ pub struct PlantSample {
     pub true_force_n: f64,
     /// Motor force commanded \[N\] (after the limit).
     pub motor_force_n: f64,
+    /// The acquisition fault injected on this sample ([`Faults`]).
+    pub fault: SampleFault,
 }
 
 /// The running plant.
@@ -289,8 +532,9 @@ pub struct Plant {
     velocity_m_per_s: f64,
     contact_force_n: f64,
     force_integral: f64,
-    previous_depth_m: f64,
     rng: StdRng,
+    fault_rng: StdRng,
+    fault_schedule: FaultSchedule,
     noise: Normal<f64>,
     step: u64,
 }
@@ -311,17 +555,19 @@ impl Plant {
         anyhow::ensure!(config.substeps >= 1, "substeps must be >= 1");
         anyhow::ensure!(!materials.is_empty(), "the plant needs a material");
         config.nominal_calibration().validate()?;
+        config.faults.validate()?;
         materials.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
         let noise = Normal::new(0.0, f64::from(config.load_cell.noise_n.max(0.0)))?;
         let start = config.surface_position_m + config.trajectory.depth_m(0.0);
         Ok(Plant {
             rng: StdRng::seed_from_u64(config.seed),
+            fault_rng: StdRng::seed_from_u64(config.faults.seed),
+            fault_schedule: FaultSchedule::new(&config.faults, config.sample_time_s),
             noise,
             position_m: start,
             velocity_m_per_s: 0.0,
             contact_force_n: 0.0,
             force_integral: 0.0,
-            previous_depth_m: start - config.surface_position_m,
             materials,
             active: 0,
             step: 0,
@@ -344,11 +590,20 @@ impl Plant {
     pub fn step(&mut self) -> PlantSample {
         let c = &self.config;
         let t = self.step as f64 * c.sample_time_s;
-        // Sensors.
-        let counts = (self.position_m * c.encoder.counts_per_m).floor() as i64;
+        // Sensors (with the injected faults on their codes).
+        let counts = (self.position_m * c.encoder.counts_per_m).floor() as i64
+            + self.fault_schedule.encoder_offset_counts(self.step);
         let encoder_raw = counts.rem_euclid(1 << 16) as u16;
         let noisy_force = self.contact_force_n + self.noise.sample(&mut self.rng);
-        let adc_code = c.load_cell.calibration_at(t).code(noisy_force as f32);
+        let calibration = c.load_cell.calibration_at(t);
+        let adc_code = if self.fault_schedule.adc_overloaded(self.step) {
+            calibration.full_scale_code
+        } else {
+            calibration.code(noisy_force as f32)
+        };
+        let fault = self
+            .fault_schedule
+            .sample_fault(self.step, &mut self.fault_rng);
         let depth_m = self.position_m - c.surface_position_m;
         let sample = PlantSample {
             time_s: t,
@@ -358,6 +613,7 @@ impl Plant {
             true_depth_m: depth_m,
             true_force_n: self.contact_force_n,
             motor_force_n: 0.0,
+            fault,
         };
 
         // Controller (on the measured signals).
@@ -417,8 +673,9 @@ impl Plant {
             self.active += 1;
         }
         let depth = self.position_m - self.config.surface_position_m;
-        let rate = (depth - self.previous_depth_m) / dt;
-        self.previous_depth_m = depth;
+        // The probe's velocity at the end of the sample, what the material feels (a
+        // backward difference would delay the damping force by half a sample).
+        let rate = self.velocity_m_per_s;
         let model = &mut self.materials[self.active].model;
         self.contact_force_n = f64::from(model.step(depth as f32, rate as f32));
         self.step += 1;
@@ -454,9 +711,23 @@ impl Acquisition {
         })
     }
 
-    /// Raw codes → SI sample.
+    /// Raw codes → SI sample, with the sample's injected fault: a dropped sample is all
+    /// NaN (and the encoder counter is not read), a NaN or infinite force replaces the
+    /// converted force.
     pub fn convert(&mut self, sample: &PlantSample) -> RawSample {
+        if sample.fault == SampleFault::Dropped {
+            return RawSample {
+                position_m: f32::NAN,
+                force_n: f32::NAN,
+                saturated: false,
+            };
+        }
         let (force_n, saturated) = self.calibration.force_n(sample.adc_code);
+        let force_n = match sample.fault {
+            SampleFault::NanForce => f32::NAN,
+            SampleFault::InfiniteForce => f32::INFINITY,
+            SampleFault::None | SampleFault::Dropped => force_n,
+        };
         RawSample {
             position_m: self.encoder.position_m(sample.encoder_raw),
             force_n,
@@ -549,6 +820,161 @@ mod tests {
             (f64::from(last.0) - (last.1 - start)).abs() < 5e-6,
             "{last:?}"
         );
+    }
+
+    #[test]
+    fn faults_hit_the_samples_they_name() {
+        let kv = KelvinVoigt::try_new(2000.0, 0.0).unwrap();
+        let mut cfg = config(Trajectory::Waypoints {
+            points: vec![(0.0, -1.0e-3)],
+        });
+        cfg.faults = Faults {
+            nan_force: vec![FaultWindow::at(0.010)],
+            infinite_force: vec![FaultWindow::at(0.020)],
+            dropped: vec![FaultWindow {
+                start_s: 0.030,
+                duration_s: 0.003,
+            }],
+            adc_overload: vec![FaultWindow::at(0.040)],
+            encoder_glitches: vec![EncoderGlitch {
+                at_s: 0.050,
+                counts: 100,
+                duration_s: 0.0,
+            }],
+            ..Faults::default()
+        };
+        let mut plant = Plant::new(
+            cfg.clone(),
+            vec![MaterialChange {
+                at_s: 0.0,
+                model: Box::new(kv),
+            }],
+        )
+        .unwrap();
+        let mut acq = Acquisition::new(&cfg, 0.0).unwrap();
+        let raw: Vec<RawSample> = (0..60).map(|_| acq.convert(&plant.step())).collect();
+        assert!(raw[10].force_n.is_nan() && raw[10].position_m.is_finite());
+        assert_eq!(raw[20].force_n, f32::INFINITY);
+        assert!((30..33).all(|i| raw[i].force_n.is_nan() && raw[i].position_m.is_nan()));
+        assert!(raw[33].position_m.is_finite());
+        assert!(raw[40].saturated && !raw[39].saturated && !raw[41].saturated);
+        // A 100-count spike for one sample, then back. The position loop reads the same
+        // counter, so the spike kicks the motor: 20 N for 1 ms moves it ≈ 10 µm.
+        assert!((raw[50].position_m - raw[49].position_m - 100e-6).abs() < 3e-6);
+        assert!((raw[51].position_m - raw[49].position_m).abs() < 20e-6);
+        let faulty = [10, 20, 30, 31, 32, 40, 50];
+        for (i, r) in raw.iter().enumerate() {
+            if !faulty.contains(&i) {
+                assert!(r.force_n.is_finite() && r.position_m.is_finite() && !r.saturated);
+            }
+        }
+    }
+
+    #[test]
+    fn fault_schedule_merges_windows_and_sums_glitches() {
+        let faults = Faults {
+            dropped: vec![
+                FaultWindow {
+                    start_s: 0.010,
+                    duration_s: 0.005,
+                },
+                FaultWindow {
+                    start_s: 0.012,
+                    duration_s: 0.010,
+                },
+                FaultWindow::at(0.030),
+            ],
+            encoder_glitches: vec![
+                EncoderGlitch {
+                    at_s: 0.010,
+                    counts: 5,
+                    duration_s: 0.010,
+                },
+                EncoderGlitch {
+                    at_s: 0.015,
+                    counts: -2,
+                    duration_s: 1.0,
+                },
+            ],
+            ..Faults::default()
+        };
+        let s = FaultSchedule::new(&faults, 1.0e-3);
+        let dropped: Vec<u64> = (0..40)
+            .filter(|&k| FaultSchedule::hit(&s.dropped, k))
+            .collect();
+        assert_eq!(dropped, (10..22).chain([30]).collect::<Vec<_>>());
+        let offsets: Vec<i64> = [9, 10, 14, 15, 19, 20, 500, 1015]
+            .iter()
+            .map(|&k| s.encoder_offset_counts(k))
+            .collect();
+        assert_eq!(offsets, [0, 5, 5, 3, 3, -2, -2, 0]);
+    }
+
+    #[test]
+    fn random_faults_do_not_change_the_noise() {
+        let run = |faults: Faults| {
+            let cfg = PlantConfig {
+                faults,
+                ..config(Trajectory::Waypoints {
+                    points: vec![(0.0, -1.0e-3)],
+                })
+            };
+            let kv = KelvinVoigt::try_new(2000.0, 0.0).unwrap();
+            let mut plant = Plant::new(
+                cfg,
+                vec![MaterialChange {
+                    at_s: 0.0,
+                    model: Box::new(kv),
+                }],
+            )
+            .unwrap();
+            (0..2000).map(|_| plant.step()).collect::<Vec<_>>()
+        };
+        let clean = run(Faults::default());
+        let faulty = run(Faults {
+            dropped_probability_per_sample: 0.01,
+            nan_force_probability_per_sample: 0.01,
+            seed: 9,
+            ..Faults::default()
+        });
+        let dropped = faulty
+            .iter()
+            .filter(|s| s.fault == SampleFault::Dropped)
+            .count();
+        let nan = faulty
+            .iter()
+            .filter(|s| s.fault == SampleFault::NanForce)
+            .count();
+        assert!(
+            (5..=40).contains(&dropped) && (5..=40).contains(&nan),
+            "{dropped} {nan}"
+        );
+        assert!(clean
+            .iter()
+            .zip(&faulty)
+            .all(|(a, b)| a.adc_code == b.adc_code));
+    }
+
+    #[test]
+    fn fault_config_is_validated_and_optional_in_json() {
+        let mut cfg = PlantConfig::default();
+        cfg.faults.dropped_probability_per_sample = 1.5;
+        let kv = KelvinVoigt::try_new(2000.0, 0.0).unwrap();
+        let material = |m: KelvinVoigt| {
+            vec![MaterialChange {
+                at_s: 0.0,
+                model: Box::new(m),
+            }]
+        };
+        let err = Plant::new(cfg, material(kv)).err().unwrap();
+        assert!(err
+            .to_string()
+            .contains("faults.dropped_probability_per_sample"));
+        // A config written before faults existed still reads.
+        let mut json = serde_json::to_value(PlantConfig::default()).unwrap();
+        json.as_object_mut().unwrap().remove("faults");
+        let back: PlantConfig = serde_json::from_value(json).unwrap();
+        assert_eq!(back, PlantConfig::default());
     }
 
     #[test]
