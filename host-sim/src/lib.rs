@@ -3,7 +3,9 @@
 //! run over records, plots, and the discrepancy workflow. The `host-sim` binary is the
 //! command-line front end.
 
+pub mod diagnose;
 pub mod files;
+pub mod generator;
 pub mod phases;
 pub mod plant;
 pub mod plots;

@@ -1,0 +1,315 @@
+//! The measured log, prepared for batch fitting: force offset and first-impact contact
+//! point from the core's own contact detector, block averages (which keep position and
+//! force on the same time base), derivatives, and the phases of the test.
+
+use estimator_core::conditioning::{
+    ContactDetector, ContactDetectorConfig, ContactState, RecontactPolicy,
+};
+
+use crate::phases::{Phase, PhaseClassifier};
+
+/// Fitting samples are block averages over about this long \[s\] (200 Hz from a 1 kHz
+/// log; slower logs are used sample by sample).
+pub const BLOCK_S: f64 = 5.0e-3;
+
+/// Longest fitting series: a longer log gets longer blocks (a 60 s, 1 kHz log is fitted
+/// on 15 ms blocks). Every candidate fit is O(rows); this bounds a diagnosis to about a
+/// second whatever the log length, and 4000 blocks still resolve the slowest effect
+/// (a relaxation mode) and the fastest (a 5 ms delay, through the raw-sample prefix
+/// sums, not the block grid).
+pub const MAX_BLOCKS: usize = 4000;
+
+/// A log prepared for fitting.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Sample time of the fitting samples \[s\].
+    pub dt: f64,
+    /// Time \[s\].
+    pub time_s: Vec<f64>,
+    /// δ = x − x_contact \[m\] (negative out of contact, not clamped).
+    pub depth_m: Vec<f64>,
+    /// δ̇ \[m/s\] (central difference).
+    pub rate_m_per_s: Vec<f64>,
+    /// δ̈ \[m/s²\] (second difference).
+    pub accel_m_per_s2: Vec<f64>,
+    /// Force with the pre-contact offset removed \[N\].
+    pub force_n: Vec<f64>,
+    /// In contact according to the detector (majority of the block).
+    pub contact: Vec<bool>,
+    /// Phase of each sample.
+    pub phase: Vec<Phase>,
+    /// Force offset removed \[N\] and contact position \[m\] found.
+    pub force_offset_n: f64,
+    /// Contact position x_contact \[m\] (first impact).
+    pub contact_position_m: f64,
+    /// Noise level of one fitting sample \[N\] (free-space force spread / √block).
+    pub noise_n: f64,
+    /// Raw samples per fitting sample.
+    pub block: usize,
+    /// δ of every raw sample (position − contact position) \[m\], `block` per fitting
+    /// sample.
+    pub raw_depth_m: Vec<f64>,
+    /// Prefix sums of `raw_depth_m` (one more element), for shifted block means.
+    pub raw_depth_prefix: Vec<f64>,
+    /// Shallowest raw δ within each fitting sample \[m\].
+    pub block_min_depth_m: Vec<f64>,
+    /// Deepest raw δ within each fitting sample \[m\].
+    pub block_max_depth_m: Vec<f64>,
+    /// First fitting sample after the end of the first contact: the probe is back above
+    /// the first contact point (the length if the log never leaves its first contact).
+    pub first_contact_end: usize,
+}
+
+/// Why a log cannot be diagnosed.
+#[derive(Debug, thiserror::Error)]
+pub enum PrepareError {
+    /// Position and force differ in length or are too short.
+    #[error("the log has {0} samples; at least 200 are needed")]
+    TooShort(usize),
+    /// The detector never saw a contact.
+    #[error("no contact found: the force never rose above {threshold_n:.3e} N over its offset")]
+    NoContact {
+        /// Onset threshold \[N\].
+        threshold_n: f64,
+    },
+}
+
+/// Prepares a log (`time_s` uniformly sampled, `position_m` positive into the material,
+/// `force_n` compressive positive) with the contact detector configured by `detector`
+/// (its recontact policy is forced to the first impact and its tare frozen: δ is
+/// measured from one contact point, as in the paper, and the offset is the one before
+/// that impact).
+///
+/// # Errors
+/// [`PrepareError`] when the log is too short or never touches.
+pub fn prepare(
+    time_s: &[f64],
+    position_m: &[f64],
+    force_n: &[f64],
+    detector: ContactDetectorConfig,
+) -> Result<Prepared, PrepareError> {
+    let n = time_s.len().min(position_m.len()).min(force_n.len());
+    if n < MIN_SAMPLES {
+        return Err(PrepareError::TooShort(n));
+    }
+    let config = ContactDetectorConfig {
+        recontact: RecontactPolicy::FirstImpact,
+        tare_tracking_samples: 0,
+        ..detector
+    };
+    let mut det = match ContactDetector::try_new(config) {
+        Ok(d) => d,
+        Err(_) => {
+            ContactDetector::try_new(ContactDetectorConfig::default()).expect("defaults are valid")
+        }
+    };
+    let mut contact = Vec::with_capacity(n);
+    for i in 0..n {
+        let u = det.update(position_m[i] as f32, force_n[i] as f32);
+        contact.push(u.state == ContactState::InContact);
+    }
+    let Some(first) = contact.iter().position(|c| *c) else {
+        return Err(PrepareError::NoContact {
+            threshold_n: f64::from(det.onset_threshold_n()),
+        });
+    };
+    let offset = f64::from(det.force_offset_n());
+    let x_c = f64::from(det.contact_position_m());
+    let native_dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
+    let block = ((BLOCK_S / native_dt).round() as usize)
+        .max(n.div_ceil(MAX_BLOCKS))
+        .clamp(1, n / MIN_BLOCKS);
+    let blocks = n / block;
+    let dt = block as f64 * native_dt;
+    let avg =
+        |v: &[f64], b: usize| v[b * block..(b + 1) * block].iter().sum::<f64>() / block as f64;
+    let depth: Vec<f64> = (0..blocks).map(|b| avg(position_m, b) - x_c).collect();
+    let force: Vec<f64> = (0..blocks).map(|b| avg(force_n, b) - offset).collect();
+    let in_contact: Vec<bool> = (0..blocks)
+        .map(|b| {
+            contact[b * block..(b + 1) * block]
+                .iter()
+                .filter(|c| **c)
+                .count()
+                * 2
+                > block
+        })
+        .collect();
+    let rate: Vec<f64> = (0..blocks)
+        .map(|b| {
+            let (lo, hi) = (b.saturating_sub(1), (b + 1).min(blocks - 1));
+            (depth[hi] - depth[lo]) / ((hi - lo).max(1) as f64 * dt)
+        })
+        .collect();
+    let accel: Vec<f64> = (0..blocks)
+        .map(|b| {
+            if b == 0 || b + 1 >= blocks {
+                0.0
+            } else {
+                (depth[b + 1] - 2.0 * depth[b] + depth[b - 1]) / (dt * dt)
+            }
+        })
+        .collect();
+    let v_star = crate::phases::speed_threshold(&depth, dt);
+    let mut classifier = PhaseClassifier::new(v_star);
+    let phase: Vec<Phase> = (0..blocks)
+        .map(|b| classifier.classify(in_contact[b], rate[b]))
+        .collect();
+    // The first contact ends when the probe is back above the first contact point (by
+    // position: a load-cell zero shift may keep the force above the release threshold).
+    let first_block = in_contact.iter().position(|c| *c).unwrap_or(first / block);
+    let first_contact_end = (first_block..blocks)
+        .find(|b| depth[*b] <= 0.0)
+        .unwrap_or(blocks);
+    // Noise of one fitting sample: spread of the raw force before the first contact.
+    let quiet = &force_n[..first];
+    let noise_raw = if quiet.len() > 10 {
+        let m = quiet.iter().sum::<f64>() / quiet.len() as f64;
+        (quiet.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (quiet.len() - 1) as f64).sqrt()
+    } else {
+        crate::setup::noise_level(&force_n[..n])
+    };
+    Ok(Prepared {
+        dt,
+        time_s: (0..blocks).map(|b| avg(time_s, b)).collect(),
+        depth_m: depth,
+        rate_m_per_s: rate,
+        accel_m_per_s2: accel,
+        force_n: force,
+        contact: in_contact,
+        phase,
+        force_offset_n: offset,
+        contact_position_m: x_c,
+        noise_n: noise_raw / (block as f64).sqrt(),
+        raw_depth_m: position_m[..blocks * block]
+            .iter()
+            .map(|x| x - x_c)
+            .collect(),
+        raw_depth_prefix: std::iter::once(0.0)
+            .chain(position_m[..blocks * block].iter().scan(0.0, |acc, x| {
+                *acc += x - x_c;
+                Some(*acc)
+            }))
+            .collect(),
+        block_min_depth_m: (0..blocks)
+            .map(|b| {
+                position_m[b * block..(b + 1) * block]
+                    .iter()
+                    .copied()
+                    .fold(f64::INFINITY, f64::min)
+                    - x_c
+            })
+            .collect(),
+        block_max_depth_m: (0..blocks)
+            .map(|b| {
+                position_m[b * block..(b + 1) * block]
+                    .iter()
+                    .copied()
+                    .fold(f64::NEG_INFINITY, f64::max)
+                    - x_c
+            })
+            .collect(),
+        block,
+        first_contact_end,
+    })
+}
+
+/// Fewest raw samples of a log.
+pub const MIN_SAMPLES: usize = 200;
+/// Fewest fitting samples (the block shrinks for short logs).
+const MIN_BLOCKS: usize = 100;
+
+impl Prepared {
+    /// Index of the first fitting sample: 0.25 s (at least 5 samples) before the first
+    /// contact, so that the onset and some free space (for the tare) are inside the fit
+    /// but not a long approach.
+    pub fn fit_start(&self) -> usize {
+        let first = self.contact.iter().position(|c| *c).unwrap_or(0);
+        first.saturating_sub(((0.25 / self.dt) as usize).max(5))
+    }
+
+    /// Mean of the linearly interpolated raw δ over `block` raw samples starting at the
+    /// fractional raw index `x0` (clamped to the record) \[m\].
+    pub fn raw_block_mean(&self, x0: f64) -> f64 {
+        let raw = self.raw_depth_m.len();
+        let b = self.block;
+        let x0 = x0.clamp(0.0, (raw - b) as f64);
+        let k = x0.floor() as usize;
+        let f = x0 - k as f64;
+        let p = &self.raw_depth_prefix;
+        let mean = |a: usize| (p[(a + b).min(raw)] - p[a.min(raw)]) / b as f64;
+        if f == 0.0 || k + 1 + b > raw {
+            mean(k)
+        } else {
+            (1.0 - f) * mean(k) + f * mean(k + 1)
+        }
+    }
+
+    /// Keeps the log up to the end of the first `phase` segment after the first contact
+    /// (ended by another phase lasting 0.25 s; a loading segment also ends where the
+    /// force first reaches 99.5 % of its peak)
+    /// (`Phase::Loading`: the first loading curve alone, the part of an indentation a
+    /// stiffness law describes before plastic flow and creep). Returns `false` and leaves
+    /// the log unchanged when there is no such segment or fewer than 100 fitting samples
+    /// would remain.
+    pub fn keep_until_end_of(&mut self, phase: Phase) -> bool {
+        let first = self.contact.iter().position(|c| *c).unwrap_or(0);
+        let Some(begin) = (first..self.len()).find(|&i| self.phase[i] == phase) else {
+            return false;
+        };
+        // The segment ends where another phase lasts at least 0.25 s: a sample-long
+        // "hold" where a slow indenter's speed dips below the threshold does not end it.
+        let persist = ((0.25 / self.dt) as usize).max(1);
+        let mut end = self.len();
+        let mut other = 0;
+        for i in begin..self.len() {
+            other = if self.phase[i] == phase { 0 } else { other + 1 };
+            if other >= persist {
+                end = i + 1 - other;
+                break;
+            }
+        }
+        if phase == Phase::Loading {
+            // A creeping hold under constant load keeps moving in: the loading curve
+            // ends where the force first reaches 99.5 % of its peak.
+            let peak = self
+                .force_n
+                .iter()
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max);
+            if let Some(top) = (begin..end).find(|&i| self.force_n[i] >= 0.995 * peak) {
+                end = top + 1;
+            }
+        }
+        if end < MIN_BLOCKS || end - self.fit_start() < MIN_BLOCKS {
+            return false;
+        }
+        for v in [
+            &mut self.time_s,
+            &mut self.depth_m,
+            &mut self.rate_m_per_s,
+            &mut self.accel_m_per_s2,
+            &mut self.force_n,
+            &mut self.block_min_depth_m,
+            &mut self.block_max_depth_m,
+        ] {
+            v.truncate(end);
+        }
+        self.contact.truncate(end);
+        self.phase.truncate(end);
+        self.raw_depth_m.truncate(end * self.block);
+        self.raw_depth_prefix.truncate(end * self.block + 1);
+        self.first_contact_end = self.first_contact_end.min(end);
+        true
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// `true` when empty.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+}

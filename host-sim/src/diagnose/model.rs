@@ -1,0 +1,1296 @@
+//! Composite contact models for the discrepancy workflow: a Kelvin-Voigt baseline plus
+//! named physical effects, each the core's own model piece (Hunt-Crossley power-law
+//! elasticity and depth-dependent damping, the QLV exponential elastic response and its
+//! relaxation modes) or a measurement/mechanical effect. Fitted in batch by variable
+//! projection: for given nonlinear parameters (exponent, rate, delay, shift…) the force is
+//! linear in its coefficients (ordinary least squares); the nonlinear parameters are found
+//! by a bounded one-dimensional search each.
+
+use std::collections::BTreeSet;
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use super::data::Prepared;
+
+/// A named effect a model may be missing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Elastic force ∝ δⁿ, n ≠ 1 (Hunt-Crossley's elastic part, eq. 3).
+    PowerLawStiffness,
+    /// Elastic force (m/b)(e^{bδ} − 1) (QLV exponential law, eqs. 11/13).
+    ExponentialStiffness,
+    /// Damping ∝ δ^q·δ̇ (Hunt-Crossley, eq. 3) instead of ∝ δ̇.
+    DepthDependentDamping,
+    /// One more exponential mode of the reduced relaxation function (QLV eq. 10/15,
+    /// a Zener arm): a fraction c of the elastic force relaxes at rate ν.
+    Relaxation,
+    /// Load-cell bias left after the tare.
+    ForceOffset,
+    /// Error in the contact position (δ measured from the wrong point).
+    ContactPointOffset,
+    /// Probe/tissue mass: m·δ̈.
+    Inertia,
+    /// Lag of the force channel behind the position channel.
+    TimeDelay,
+    /// Force ∝ sign(δ̇) (Coulomb friction in contact).
+    CoulombFriction,
+    /// Permanent deformation: the contact point moves with the deepest indentation.
+    PlasticSet,
+}
+
+impl Effect {
+    /// All effects, in a fixed order.
+    pub const ALL: [Effect; 10] = [
+        Effect::PowerLawStiffness,
+        Effect::ExponentialStiffness,
+        Effect::DepthDependentDamping,
+        Effect::Relaxation,
+        Effect::ForceOffset,
+        Effect::ContactPointOffset,
+        Effect::Inertia,
+        Effect::TimeDelay,
+        Effect::CoulombFriction,
+        Effect::PlasticSet,
+    ];
+
+    /// The identifier used in reports and JSON.
+    pub fn id(self) -> &'static str {
+        match self {
+            Effect::PowerLawStiffness => "power_law_stiffness",
+            Effect::ExponentialStiffness => "exponential_stiffness",
+            Effect::DepthDependentDamping => "depth_dependent_damping",
+            Effect::Relaxation => "relaxation",
+            Effect::ForceOffset => "force_offset",
+            Effect::ContactPointOffset => "contact_point_offset",
+            Effect::Inertia => "inertia",
+            Effect::TimeDelay => "time_delay",
+            Effect::CoulombFriction => "coulomb_friction",
+            Effect::PlasticSet => "plastic_set",
+        }
+    }
+
+    /// Parses [`Effect::id`].
+    pub fn from_id(id: &str) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.id() == id)
+    }
+
+    /// One line of physics.
+    pub fn description(self) -> &'static str {
+        match self {
+            Effect::PowerLawStiffness => "elastic force ∝ δⁿ (Hunt-Crossley elastic part)",
+            Effect::ExponentialStiffness => "elastic force (m/b)(e^{bδ} − 1) (QLV exponential law)",
+            Effect::DepthDependentDamping => "damping ∝ δ^q·δ̇ (Hunt-Crossley) instead of ∝ δ̇",
+            Effect::Relaxation => {
+                "stress relaxation: one more exponential mode (Zener arm, QLV eq. 15)"
+            }
+            Effect::ForceOffset => "load-cell bias",
+            Effect::ContactPointOffset => "error in the contact position",
+            Effect::Inertia => "probe/tissue mass m·δ̈",
+            Effect::TimeDelay => "lag between the force and position channels",
+            Effect::CoulombFriction => "force ∝ sign(δ̇)",
+            Effect::PlasticSet => "permanent deformation: the unloading contact point moves",
+        }
+    }
+
+    /// Effects that replace the same model piece cannot both be present.
+    pub fn conflicts_with(self, other: Effect) -> bool {
+        matches!(
+            (self, other),
+            (Effect::PowerLawStiffness, Effect::ExponentialStiffness)
+                | (Effect::ExponentialStiffness, Effect::PowerLawStiffness)
+        )
+    }
+
+    /// The effect's nonlinear parameter, if any (found by search, not least squares).
+    pub fn knob(self) -> Option<Knob> {
+        match self {
+            Effect::PowerLawStiffness => Some(Knob::Exponent),
+            Effect::ExponentialStiffness => Some(Knob::StiffeningRate),
+            Effect::DepthDependentDamping => Some(Knob::DampingExponent),
+            Effect::Relaxation => Some(Knob::RelaxationRate),
+            Effect::ContactPointOffset => Some(Knob::ContactShift),
+            Effect::TimeDelay => Some(Knob::Delay),
+            Effect::PlasticSet => Some(Knob::PlasticFraction),
+            Effect::CoulombFriction => Some(Knob::SlipRate),
+            Effect::ForceOffset | Effect::Inertia => None,
+        }
+    }
+}
+
+/// A nonlinear parameter of the composite model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+pub enum Knob {
+    /// Refinement of the first-impact contact position \[m\], part of every model: the
+    /// detector's threshold point is biased by the onset shape, the damping step and any
+    /// channel delay, and δ must be measured from the point each model implies.
+    ContactPosition,
+    /// Power-law exponent n.
+    Exponent,
+    /// Exponential stiffening rate b \[1/m\].
+    StiffeningRate,
+    /// Damping exponent q.
+    DampingExponent,
+    /// Relaxation rate ν \[1/s\].
+    RelaxationRate,
+    /// Force-channel delay \[s\].
+    Delay,
+    /// Contact position of the later contacts minus that of the first impact \[m\].
+    ContactShift,
+    /// Plastic-set fraction of the deepest indentation.
+    PlasticFraction,
+    /// Rate \[m/s\] over which Coulomb friction changes sign (F_c·tanh(δ̇/v_s)).
+    SlipRate,
+}
+
+impl Knob {
+    /// Search bounds in the knob's units and whether to search on a log scale.
+    fn range(self, scale: &Scales) -> (f64, f64, bool) {
+        let l = scale.depth_m;
+        match self {
+            Knob::ContactPosition => (-0.2 * l, 0.2 * l, false),
+            Knob::Exponent => (0.5, 3.5, false),
+            Knob::StiffeningRate => (0.05 / l, 8.0 / l, true),
+            Knob::DampingExponent => (0.1, 3.0, false),
+            // From a mode slower than the record to one a few samples fast.
+            Knob::RelaxationRate => (
+                (0.3 / scale.duration_s).min(0.05),
+                (0.2 / scale.dt_s).max(1.0),
+                true,
+            ),
+            Knob::Delay => (
+                -(2.0 * scale.dt_s).max(0.01),
+                (5.0 * scale.dt_s).max(0.05),
+                false,
+            ),
+            Knob::ContactShift => (-0.25 * l, 0.25 * l, false),
+            Knob::PlasticFraction => (0.0, 0.4, false),
+            Knob::SlipRate => (0.005 * scale.rate_m_per_s, 0.5 * scale.rate_m_per_s, true),
+        }
+    }
+}
+
+/// Typical magnitudes of a log, for scaling and search bounds.
+#[derive(Debug, Clone, Copy)]
+pub struct Scales {
+    /// Deepest penetration \[m\].
+    pub depth_m: f64,
+    /// RMS penetration rate in contact \[m/s\].
+    pub rate_m_per_s: f64,
+    /// Length of the record \[s\].
+    pub duration_s: f64,
+    /// Sample time of the fitting samples \[s\].
+    pub dt_s: f64,
+}
+
+impl Scales {
+    /// From the prepared log.
+    pub fn of(data: &Prepared) -> Self {
+        let depth = data
+            .depth_m
+            .iter()
+            .copied()
+            .fold(0.0f64, f64::max)
+            .max(1e-12);
+        let (mut s, mut n) = (0.0, 0usize);
+        for (c, v) in data.contact.iter().zip(&data.rate_m_per_s) {
+            if *c {
+                s += v * v;
+                n += 1;
+            }
+        }
+        let rate = if n > 0 { (s / n as f64).sqrt() } else { depth };
+        Scales {
+            depth_m: depth,
+            rate_m_per_s: rate.max(1e-12),
+            duration_s: (data.len() as f64 * data.dt).max(data.dt),
+            dt_s: data.dt,
+        }
+    }
+}
+
+/// Values of the nonlinear parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Nonlinear {
+    /// Contact position refinement \[m\] (added to the detector's first-impact point).
+    pub contact_m: f64,
+    /// Power-law exponent n.
+    pub n: f64,
+    /// Exponential stiffening rate b \[1/m\].
+    pub b: f64,
+    /// Damping exponent q.
+    pub q: f64,
+    /// Relaxation rate ν \[1/s\].
+    pub nu: f64,
+    /// Force-channel delay \[s\].
+    pub delay_s: f64,
+    /// Contact position of the later contacts minus the first impact's \[m\].
+    pub contact_shift_m: f64,
+    /// Plastic-set fraction p of the deepest indentation.
+    pub plastic: f64,
+    /// Coulomb slip rate v_s \[m/s\].
+    pub slip_m_per_s: f64,
+}
+
+impl Default for Nonlinear {
+    fn default() -> Self {
+        Nonlinear {
+            contact_m: 0.0,
+            n: 1.0,
+            b: 1.0,
+            q: 0.0,
+            nu: 1.0,
+            delay_s: 0.0,
+            contact_shift_m: 0.0,
+            plastic: 0.0,
+            slip_m_per_s: 1e-3,
+        }
+    }
+}
+
+impl Nonlinear {
+    /// The value of a knob.
+    pub fn get(&self, k: Knob) -> f64 {
+        match k {
+            Knob::ContactPosition => self.contact_m,
+            Knob::Exponent => self.n,
+            Knob::StiffeningRate => self.b,
+            Knob::DampingExponent => self.q,
+            Knob::RelaxationRate => self.nu,
+            Knob::Delay => self.delay_s,
+            Knob::ContactShift => self.contact_shift_m,
+            Knob::PlasticFraction => self.plastic,
+            Knob::SlipRate => self.slip_m_per_s,
+        }
+    }
+
+    fn set(&mut self, k: Knob, v: f64) {
+        match k {
+            Knob::ContactPosition => self.contact_m = v,
+            Knob::Exponent => self.n = v,
+            Knob::StiffeningRate => self.b = v,
+            Knob::DampingExponent => self.q = v,
+            Knob::RelaxationRate => self.nu = v,
+            Knob::Delay => self.delay_s = v,
+            Knob::ContactShift => self.contact_shift_m = v,
+            Knob::PlasticFraction => self.plastic = v,
+            Knob::SlipRate => self.slip_m_per_s = v,
+        }
+    }
+}
+
+/// Columns of the regression, named.
+struct Design {
+    names: Vec<&'static str>,
+    /// Column-major values over the fit window.
+    columns: Vec<Vec<f64>>,
+    /// Material force columns (gated by contact), as opposed to the offset.
+    material: Vec<bool>,
+    /// Contact gate per sample.
+    gate: Vec<bool>,
+}
+
+/// Linear interpolation of `v` at fractional index `x`.
+fn interp(v: &[f64], x: f64) -> f64 {
+    if x <= 0.0 {
+        return v[0];
+    }
+    let i = x.floor() as usize;
+    if i + 1 >= v.len() {
+        return v[v.len() - 1];
+    }
+    let f = x - i as f64;
+    v[i] * (1.0 - f) + v[i + 1] * f
+}
+
+fn design(
+    data: &Prepared,
+    start: usize,
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    scale: &Scales,
+) -> Design {
+    let n = data.len() - start;
+    let has = |e: Effect| effects.contains(&e);
+    let shift = if has(Effect::TimeDelay) {
+        nl.delay_s / data.dt
+    } else {
+        0.0
+    };
+    // Delayed motion: block averages of the raw depth over a window shifted by the delay
+    // (exact for the linearly interpolated raw signal, from prefix sums), and their
+    // differences; the undelayed signals are the prepared ones.
+    let delayed: Option<[Vec<f64>; 3]> = (shift != 0.0).then(|| {
+        let b = data.block as f64;
+        let avg = |k: isize| data.raw_block_mean(k as f64 * b - shift * b);
+        let dt = data.dt;
+        let mut dd = Vec::with_capacity(n);
+        let mut vv = Vec::with_capacity(n);
+        let mut aa = Vec::with_capacity(n);
+        for i in 0..n {
+            let k = (start + i) as isize;
+            let (m0, m1, p1) = (avg(k - 1), avg(k), avg(k + 1));
+            dd.push(m1);
+            vv.push((p1 - m0) / (2.0 * dt));
+            aa.push((p1 - 2.0 * m1 + m0) / (dt * dt));
+        }
+        [dd, vv, aa]
+    });
+    let series = |which: usize, i: usize| match &delayed {
+        Some(d) => d[which][i],
+        None => [&data.depth_m, &data.rate_m_per_s, &data.accel_m_per_s2][which][start + i],
+    };
+    let l = scale.depth_m;
+    let v0 = nl.slip_m_per_s;
+    let coulomb_on = has(Effect::CoulombFriction);
+    let mut deepest = f64::NEG_INFINITY;
+    let mut gate = Vec::with_capacity(n);
+    let (mut elastic, mut damping, mut inertia, mut coulomb) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::new(),
+        Vec::new(),
+    );
+    // Material terms of one instant: (in contact, elastic, damping, Coulomb) for the
+    // depth δ_e below the (shifted, plastically set) contact point and rate v.
+    let terms = |de: f64, v: f64| -> (f64, f64, f64, f64) {
+        if de <= 0.0 {
+            return (0.0, 0.0, 0.0, 0.0);
+        }
+        let x = de / l;
+        let e = if has(Effect::PowerLawStiffness) {
+            x.powf(nl.n) * l
+        } else if has(Effect::ExponentialStiffness) {
+            let bl = nl.b * l;
+            (bl * x).exp_m1() / bl * l
+        } else {
+            de
+        };
+        let dv = if has(Effect::DepthDependentDamping) {
+            x.powf(nl.q) * v
+        } else {
+            v
+        };
+        (1.0, e, dv, if coulomb_on { (v / v0).tanh() } else { 0.0 })
+    };
+    let block = data.block;
+    let half = (block as f64 - 1.0) / 2.0;
+    for i in 0..n {
+        // δ from the refined first-impact point; later contacts from the shifted one.
+        // (The knob moves the first contact's point, so that the shared refinement
+        // follows the later contacts, which hold most of the record.)
+        let mut reference = nl.contact_m;
+        if has(Effect::ContactPointOffset) && start + i < data.first_contact_end {
+            reference -= nl.contact_shift_m;
+        }
+        let d = series(0, i) - reference;
+        let v = series(1, i);
+        deepest = deepest.max(d);
+        if has(Effect::PlasticSet) {
+            reference += nl.plastic * deepest.max(0.0);
+        }
+        // A block in which the contact begins or ends is averaged sample by sample (the
+        // damping step at impact and the onset shape do not average linearly).
+        let b = ((start + i) as f64 - shift).floor().max(0.0) as usize;
+        let (lo, hi) = (
+            data.block_min_depth_m[b.min(data.len() - 1)],
+            data.block_max_depth_m[(b + 1).min(data.len() - 1)],
+        );
+        let (lo, hi) = (
+            lo.min(data.block_min_depth_m[(b + 1).min(data.len() - 1)]),
+            hi.max(data.block_max_depth_m[b.min(data.len() - 1)]),
+        );
+        // So is a block in which the motion reverses when Coulomb friction is modelled.
+        let reverses = has(Effect::CoulombFriction) && {
+            let (a, b) = (
+                series(1, i.saturating_sub(1)),
+                series(1, (i + 1).min(n - 1)),
+            );
+            a * v <= 0.0 || b * v <= 0.0
+        };
+        let (g, e, dv, c) = if block > 1 && ((lo < reference && hi > reference) || reverses) {
+            let mut sum = (0.0, 0.0, 0.0, 0.0);
+            for j in 0..block {
+                let raw = ((start + i) * block + j) as f64 - shift * block as f64;
+                let dj = interp(&data.raw_depth_m, raw) - reference;
+                let vj = interp(&data.rate_m_per_s, (raw - half) / block as f64);
+                let t = terms(dj, vj);
+                sum = (sum.0 + t.0, sum.1 + t.1, sum.2 + t.2, sum.3 + t.3);
+            }
+            let k = block as f64;
+            (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k)
+        } else {
+            let de = series(0, i) - reference;
+            terms(de, v)
+        };
+        gate.push(g > 0.0);
+        elastic.push(e);
+        damping.push(dv);
+        if has(Effect::Inertia) {
+            inertia.push(g * series(2, i));
+        }
+        if has(Effect::CoulombFriction) {
+            coulomb.push(c);
+        }
+    }
+    let mut names = vec!["elastic", "damping"];
+    let mut columns = vec![elastic, damping];
+    let mut material = vec![true, true];
+    if has(Effect::Relaxation) {
+        let alpha = -(-nl.nu * data.dt).exp_m1();
+        let mut y = 0.0;
+        let lp: Vec<f64> = columns[0]
+            .iter()
+            .zip(&gate)
+            .map(|(u, g)| {
+                y += alpha * (u - y);
+                if *g {
+                    -y
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        names.push("relaxing");
+        columns.push(lp);
+        material.push(true);
+    }
+    if has(Effect::Inertia) {
+        names.push("mass_kg");
+        columns.push(inertia);
+        material.push(true);
+    }
+    if has(Effect::CoulombFriction) {
+        names.push("coulomb_n");
+        columns.push(coulomb);
+        material.push(true);
+    }
+    // The tare refined (part of every model): the detector's tare averages a few
+    // hundred free-space samples, an error the fit over thousands would otherwise
+    // blame on an effect.
+    names.push("tare_n");
+    columns.push(vec![1.0; n]);
+    material.push(false);
+    if has(Effect::ForceOffset) {
+        // A bias the tare before the first impact missed appeared after it: a zero
+        // shift of the load cell after its first load.
+        names.push("force_offset_n");
+        columns.push(
+            (start..data.len())
+                .map(|b| {
+                    if b >= data.first_contact_end {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        );
+        material.push(false);
+    }
+    Design {
+        names,
+        columns,
+        material,
+        gate,
+    }
+}
+
+/// Result of one least-squares solve.
+struct Solve {
+    beta: Vec<f64>,
+    covariance: DMatrix<f64>,
+    rss: f64,
+}
+
+/// Most regression columns of any model.
+const MAX_COLUMNS: usize = 8;
+
+/// Ordinary least squares on columns scaled to unit RMS (normal equations, Cholesky with
+/// a tiny ridge for rank-deficient columns such as an all-zero effect). Rows where
+/// `train` is false are left out; the material columns are weighted by `touch` (0
+/// where the probe has left the surface; all 1 when empty).
+fn least_squares(
+    design: &Design,
+    y: &[f64],
+    train: Option<&[bool]>,
+    touch: &[f64],
+) -> Option<Solve> {
+    let columns = &design.columns;
+    let p = columns.len();
+    assert!(p <= MAX_COLUMNS, "at most {MAX_COLUMNS} regression columns");
+    let mut a = [[0.0f64; MAX_COLUMNS]; MAX_COLUMNS];
+    let mut b = [0.0f64; MAX_COLUMNS];
+    let mut yy = 0.0;
+    let mut row = [0.0f64; MAX_COLUMNS];
+    for i in 0..y.len() {
+        if train.is_some_and(|t| !t[i]) {
+            continue;
+        }
+        let w = touch.get(i).copied().unwrap_or(1.0);
+        for j in 0..p {
+            row[j] = if design.material[j] {
+                w * columns[j][i]
+            } else {
+                columns[j][i]
+            };
+        }
+        let yi = y[i];
+        for j in 0..p {
+            b[j] += row[j] * yi;
+            for k in j..p {
+                a[j][k] += row[j] * row[k];
+            }
+        }
+        yy += yi * yi;
+    }
+    // Scale the columns to unit norm (conditioning), from the diagonal.
+    let scales: Vec<f64> = (0..p)
+        .map(|j| if a[j][j] > 0.0 { a[j][j].sqrt() } else { 1.0 })
+        .collect();
+    let a = DMatrix::from_fn(p, p, |j, k| {
+        let v = if j <= k { a[j][k] } else { a[k][j] };
+        v / (scales[j] * scales[k]) + if j == k { 1e-10 } else { 0.0 }
+    });
+    let b = DVector::from_fn(p, |j, _| b[j] / scales[j]);
+    let chol = a.clone().cholesky()?;
+    let x = chol.solve(&b);
+    let rss = (yy - 2.0 * x.dot(&b) + x.dot(&(&a * &x))).max(0.0);
+    let inv = chol.inverse();
+    let beta: Vec<f64> = (0..p).map(|j| x[j] / scales[j]).collect();
+    let covariance = DMatrix::from_fn(p, p, |j, k| inv[(j, k)] / (scales[j] * scales[k]));
+    Some(Solve {
+        beta,
+        covariance,
+        rss,
+    })
+}
+
+/// A fitted model.
+#[derive(Debug, Clone, Serialize)]
+pub struct Fit {
+    /// Effects on top of the Kelvin-Voigt baseline.
+    pub effects: Vec<Effect>,
+    /// Nonlinear parameters.
+    #[serde(skip)]
+    pub nonlinear: Nonlinear,
+    /// Parameters (name, value, standard error), SI.
+    pub parameters: Vec<(String, f64, f64)>,
+    /// Residual sum of squares \[N²\] over the fit window.
+    pub rss: f64,
+    /// Samples in the fit window.
+    pub samples: usize,
+    /// NRMSE \[%\] of the fit (range-normalised).
+    pub nrmse_percent: f64,
+    /// Variance accounted for \[%\].
+    pub vaf_percent: f64,
+    /// Bayesian information criterion.
+    pub bic: f64,
+    /// Blocked cross-validation RMSE \[N\] per fold.
+    pub cv_rmse_per_fold: Vec<f64>,
+    /// Their mean \[N\].
+    pub cv_rmse: f64,
+    /// Model force over the fit window \[N\].
+    #[serde(skip)]
+    pub prediction: Vec<f64>,
+    /// First sample of the fit window.
+    #[serde(skip)]
+    pub start: usize,
+}
+
+impl Fit {
+    /// Residual (measured − model) over the fit window.
+    pub fn residual(&self, data: &Prepared) -> Vec<f64> {
+        data.force_n[self.start..]
+            .iter()
+            .zip(&self.prediction)
+            .map(|(m, p)| m - p)
+            .collect()
+    }
+
+    /// A parameter by name.
+    pub fn parameter(&self, name: &str) -> Option<f64> {
+        self.parameters.iter().find(|p| p.0 == name).map(|p| p.1)
+    }
+}
+
+/// Number of blocked cross-validation folds.
+pub const FOLDS: usize = 5;
+
+/// Evaluates one model with fixed nonlinear parameters. A unilateral contact cannot
+/// pull: where the material terms sum below zero the probe has left the surface and the
+/// force is zero (the generator and the core's QLV clip the same way). The clipped set is
+/// found by iteration, starting from the samples whose measured force is within 3 noise
+/// levels of zero, then re-derived from the model's own unclipped prediction each time.
+/// Returns (RSS, design with the clipped rows zeroed, solve, clipped mask).
+fn evaluate(
+    data: &Prepared,
+    start: usize,
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    scale: &Scales,
+    iterations: usize,
+    warm: Option<&[f64]>,
+) -> Option<(f64, Design, Solve, Vec<f64>)> {
+    let n = data.len() - start;
+    let y = &data.force_n[start..];
+    let full = design(data, start, effects, nl, scale);
+    // Weight of the material terms per sample: 1 in touch, 0 separated, between for a
+    // sample in which the probe leaves the surface.
+    let mut touch: Vec<f64> = match warm {
+        Some(w) if w.len() == n => w.to_vec(),
+        _ => (0..n)
+            .map(|i| {
+                if full.gate[i] && y[i] < 3.0 * data.noise_n {
+                    0.0
+                } else {
+                    1.0
+                }
+            })
+            .collect(),
+    };
+    let block = data.block.max(1);
+    let mut result = None;
+    for _ in 0..iterations.max(1) {
+        let s = least_squares(&full, y, None, &touch)?;
+        let m: Vec<f64> = (0..n)
+            .map(|i| {
+                full.columns
+                    .iter()
+                    .zip(&s.beta)
+                    .zip(&full.material)
+                    .filter(|(_, m)| **m)
+                    .map(|((c, b), _)| c[i] * b)
+                    .sum()
+            })
+            .collect();
+        let next: Vec<f64> = (0..n)
+            .map(|i| {
+                if !full.gate[i] {
+                    return 1.0;
+                }
+                if m[i] <= 0.0 {
+                    return 0.0;
+                }
+                // Mean of max(0, m) over the sample, m linear through the neighbours.
+                let slope = 0.5 * (m[(i + 1).min(n - 1)] - m[i.saturating_sub(1)]);
+                let mean: f64 = (0..block)
+                    .map(|j| (m[i] + ((j as f64 + 0.5) / block as f64 - 0.5) * slope).max(0.0))
+                    .sum::<f64>()
+                    / block as f64;
+                (mean / m[i]).clamp(0.0, 1.0)
+            })
+            .collect();
+        let done = next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
+        result = Some((s.rss, s, touch));
+        touch = next;
+        if done {
+            break;
+        }
+    }
+    // (Returned: the weights the next evaluation nearby should start from.)
+    result.map(|(rss, s, used)| (rss, mask_rows(full, &used), s, touch))
+}
+
+/// The design with the material columns weighted by `touch`.
+fn mask_rows(full: Design, touch: &[f64]) -> Design {
+    let mut columns = full.columns;
+    for (c, m) in columns.iter_mut().zip(&full.material) {
+        if *m {
+            for (v, w) in c.iter_mut().zip(touch) {
+                *v *= w;
+            }
+        }
+    }
+    Design {
+        names: full.names,
+        columns,
+        material: full.material,
+        gate: full.gate,
+    }
+}
+
+/// How hard [`fit`] searches.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Effort {
+    /// Intervals of the grid over a new knob's range (grid + 1 points; 0: no grid, the
+    /// golden section brackets the initial value by ± `bracket`).
+    pub grid: usize,
+    /// Half-width of the golden-section bracket without a grid, as a fraction of the
+    /// knob's range.
+    pub bracket: f64,
+    /// Golden-section iterations around the best grid point (the bracket shrinks by
+    /// 0.618 each).
+    pub golden: usize,
+    /// Gauss-Newton iterations re-fitting the contact position at each point.
+    pub contact_iterations: usize,
+    /// On the grid, re-fit the contact from the detector's point too (not only from the
+    /// current model's).
+    pub both_starts: bool,
+    /// Levenberg-Marquardt iterations on all knobs at the end.
+    pub iterations: usize,
+    /// Standard errors of the nonlinear parameters (3 evaluations each; NaN when off).
+    pub uncertainties: bool,
+}
+
+impl Effort {
+    /// A screening fit: enough to rank candidates.
+    pub const QUICK: Effort = Effort {
+        grid: 8,
+        bracket: 0.0,
+        golden: 0,
+        contact_iterations: 1,
+        both_starts: true,
+        iterations: 8,
+        uncertainties: false,
+    };
+    /// Refinement of a [`Effort::QUICK`] fit: golden section within one of its grid
+    /// steps, then the full Levenberg-Marquardt.
+    pub const REFINE: Effort = Effort {
+        grid: 0,
+        bracket: 0.125,
+        golden: 10,
+        contact_iterations: 2,
+        both_starts: true,
+        iterations: 40,
+        uncertainties: true,
+    };
+    /// The fit that decides and is reported.
+    pub const FULL: Effort = Effort {
+        grid: 12,
+        bracket: 0.0,
+        golden: 10,
+        contact_iterations: 2,
+        both_starts: true,
+        iterations: 40,
+        uncertainties: true,
+    };
+}
+
+/// The nonlinear least-squares problem of one model: knobs mapped to [0, 1] (log scale
+/// where the range spans decades), residuals from the variable projection.
+struct Problem<'a> {
+    data: &'a Prepared,
+    start: usize,
+    effects: &'a BTreeSet<Effect>,
+    scale: Scales,
+}
+
+impl Problem<'_> {
+    /// (Each evaluation starts its contact weights afresh: starting from the previous
+    /// evaluation's makes the objective depend on the search path, which the searches
+    /// measurably suffer from.)
+    fn evaluate(&self, nl: &Nonlinear) -> Option<(f64, Design, Solve, Vec<f64>)> {
+        evaluate(
+            self.data,
+            self.start,
+            self.effects,
+            nl,
+            &self.scale,
+            2,
+            None,
+        )
+    }
+
+    fn to_unit(&self, k: Knob, x: f64) -> f64 {
+        let (lo, hi, log) = k.range(&self.scale);
+        let x = x.clamp(lo, hi);
+        if log {
+            (x.ln() - lo.ln()) / (hi.ln() - lo.ln())
+        } else {
+            (x - lo) / (hi - lo)
+        }
+    }
+
+    fn value_at_unit(&self, k: Knob, u: f64) -> f64 {
+        let (lo, hi, log) = k.range(&self.scale);
+        let u = u.clamp(0.0, 1.0);
+        if log {
+            (lo.ln() + u * (hi.ln() - lo.ln())).exp()
+        } else {
+            lo + u * (hi - lo)
+        }
+    }
+
+    fn with(&self, base: &Nonlinear, knobs: &[Knob], u: &[f64]) -> Nonlinear {
+        let mut nl = *base;
+        for (k, v) in knobs.iter().zip(u) {
+            nl.set(*k, self.value_at_unit(*k, *v));
+        }
+        nl
+    }
+
+    /// Residual y − ŷ over the fit window (the linear coefficients solved) and its RSS.
+    fn residual(&self, nl: &Nonlinear) -> Option<(Vec<f64>, f64)> {
+        let (rss, design, solve, _) = self.evaluate(nl)?;
+        let y = &self.data.force_n[self.start..];
+        let r = (0..y.len())
+            .map(|i| {
+                y[i] - design
+                    .columns
+                    .iter()
+                    .zip(&solve.beta)
+                    .map(|(c, b)| c[i] * b)
+                    .sum::<f64>()
+            })
+            .collect();
+        Some((r, rss))
+    }
+
+    fn rss(&self, nl: &Nonlinear) -> f64 {
+        self.evaluate(nl).map_or(f64::INFINITY, |r| r.0)
+    }
+
+    /// Levenberg-Marquardt on `knobs` (forward-difference Jacobian in unit coordinates,
+    /// bounds by clamping), at most `iterations` Jacobians.
+    fn levenberg_marquardt(
+        &self,
+        start: Nonlinear,
+        knobs: &[Knob],
+        iterations: usize,
+    ) -> (Nonlinear, f64) {
+        let p = knobs.len();
+        let Some((mut r, mut rss)) = self.residual(&start) else {
+            return (start, f64::INFINITY);
+        };
+        let mut u: Vec<f64> = knobs
+            .iter()
+            .map(|k| self.to_unit(*k, start.get(*k)))
+            .collect();
+        let mut nl = start;
+        let mut mu = 1e-3;
+        // (A step of 1e-3 of the range, about a micrometre of contact position: the RSS
+        // steps where single raw samples cross the contact point, and a finer
+        // difference sees those steps instead of the slope.)
+        const H: f64 = 1e-3;
+        for _ in 0..iterations {
+            // Jacobian of the residual.
+            let mut jac = Vec::with_capacity(p);
+            for j in 0..p {
+                let step = if knobs[j] == Knob::ContactPosition {
+                    H
+                } else {
+                    1e-4
+                };
+                let h = if u[j] + step <= 1.0 { step } else { -step };
+                let mut uj = u.clone();
+                uj[j] += h;
+                let Some((rj, _)) = self.residual(&self.with(&nl, knobs, &uj)) else {
+                    return (nl, rss);
+                };
+                jac.push(
+                    rj.iter()
+                        .zip(&r)
+                        .map(|(a, b)| (a - b) / h)
+                        .collect::<Vec<f64>>(),
+                );
+            }
+            let a = DMatrix::from_fn(p, p, |j, k| {
+                jac[j].iter().zip(&jac[k]).map(|(x, y)| x * y).sum::<f64>()
+            });
+            let g = DVector::from_fn(p, |j, _| {
+                jac[j].iter().zip(&r).map(|(x, y)| x * y).sum::<f64>()
+            });
+            let mut improved = false;
+            for _ in 0..if p == 1 { 3 } else { 8 } {
+                let mut m = a.clone();
+                for j in 0..p {
+                    m[(j, j)] += mu * a[(j, j)].max(1e-12);
+                }
+                let Some(step) = m.cholesky().map(|c| c.solve(&(-&g))) else {
+                    mu *= 4.0;
+                    continue;
+                };
+                let trial_u: Vec<f64> = (0..p).map(|j| (u[j] + step[j]).clamp(0.0, 1.0)).collect();
+                let trial = self.with(&nl, knobs, &trial_u);
+                if let Some((tr, trss)) = self.residual(&trial) {
+                    if trss < rss {
+                        let gain = (rss - trss) / rss.max(1e-300);
+                        u = trial_u;
+                        nl = trial;
+                        r = tr;
+                        rss = trss;
+                        mu = (mu / 3.0).max(1e-9);
+                        improved = gain > 1e-7;
+                        break;
+                    }
+                }
+                mu *= 4.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        (nl, rss)
+    }
+}
+
+/// Fits `effects` (on top of Kelvin-Voigt, with the contact-position refinement always
+/// present) starting from the nonlinear values `initial`. Each knob in `global` (other
+/// than the contact position) is searched over its whole range on a grid of 13 points,
+/// the contact position re-fitted at each (it trades off against every shape parameter);
+/// the contact position itself, when in `global`, is searched on a grid first. Then all
+/// knobs of the model are fitted jointly by Levenberg-Marquardt. The final model is
+/// solved with the unilateral-contact iterations and scored (NRMSE, VAF, BIC, blocked
+/// CV).
+pub fn fit(
+    data: &Prepared,
+    effects: &BTreeSet<Effect>,
+    initial: &Nonlinear,
+    global: &[Knob],
+    effort: Effort,
+) -> Option<Fit> {
+    let start = data.fit_start();
+    let scale = Scales::of(data);
+    let problem = Problem {
+        data,
+        start,
+        effects,
+        scale,
+    };
+    let mut nl = *initial;
+    let knobs = knobs_of(effects);
+    let mut order: Vec<Knob> = global
+        .iter()
+        .copied()
+        .filter(|k| knobs.contains(k))
+        .collect();
+    order.sort(); // the contact position first
+    for k in order {
+        // The RSS at unit value u of knob k, the contact position re-fitted.
+        // Each knob trades off against the contact position (a stiffening law against a
+        // later contact, a delay against an earlier one): the contact is re-fitted from
+        // the current model's and from the detector's, and the better kept.
+        let at = |u: f64, from: &Nonlinear, both: bool| {
+            let mut trial = *from;
+            trial.set(k, problem.value_at_unit(k, u));
+            if k == Knob::ContactPosition {
+                return (problem.rss(&trial), trial);
+            }
+            let (t, r) = problem.levenberg_marquardt(
+                trial,
+                &[Knob::ContactPosition],
+                effort.contact_iterations,
+            );
+            if trial.contact_m == 0.0 || !both {
+                return (r, t);
+            }
+            trial.contact_m = 0.0;
+            let (t0, r0) = problem.levenberg_marquardt(
+                trial,
+                &[Knob::ContactPosition],
+                effort.contact_iterations,
+            );
+            if r0 < r {
+                (r0, t0)
+            } else {
+                (r, t)
+            }
+        };
+        let mut best = (problem.to_unit(k, nl.get(k)), problem.rss(&nl), nl);
+        for g in (0..=effort.grid).filter(|_| effort.grid > 0) {
+            let u = g as f64 / effort.grid as f64;
+            let (rss, trial) = at(u, &nl, effort.both_starts);
+            if rss < best.1 {
+                best = (u, rss, trial);
+            }
+        }
+        let from = best.2;
+        let at = |u: f64| at(u, &from, false);
+        // Golden section around the best grid point: some knobs (delay, plastic set)
+        // have an RSS with kinks at sample boundaries that a gradient method stalls on.
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let step = if effort.grid > 0 {
+            1.0 / effort.grid as f64
+        } else {
+            effort.bracket
+        };
+        let (mut a, mut b) = ((best.0 - step).max(0.0), (best.0 + step).min(1.0));
+        let (mut c1, mut c2) = (b - g * (b - a), a + g * (b - a));
+        let (mut f1, mut f2) = (at(c1), at(c2));
+        for _ in 0..effort.golden {
+            if f1.0 < f2.0 {
+                b = c2;
+                c2 = c1;
+                f2 = f1;
+                c1 = b - g * (b - a);
+                f1 = at(c1);
+            } else {
+                a = c1;
+                c1 = c2;
+                f1 = f2;
+                c2 = a + g * (b - a);
+                f2 = at(c2);
+            }
+        }
+        for (rss, trial) in [f1, f2] {
+            if rss < best.1 {
+                best = (0.0, rss, trial);
+            }
+        }
+        nl = best.2;
+    }
+    let (nl, _) = problem.levenberg_marquardt(nl, &knobs, effort.iterations);
+    let scale = problem.scale;
+    let (rss, design, solve, _) = evaluate(data, start, effects, &nl, &scale, 4, None)?;
+    let y = &data.force_n[start..];
+    let n = y.len();
+    let prediction: Vec<f64> = (0..n)
+        .map(|i| {
+            design
+                .columns
+                .iter()
+                .zip(&solve.beta)
+                .map(|(c, b)| c[i] * b)
+                .sum()
+        })
+        .collect();
+    let range = y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - y.iter().copied().fold(f64::INFINITY, f64::min);
+    let nrmse = 100.0 * (rss / n as f64).sqrt() / range.max(1e-300);
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let var = y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>();
+    let vaf = 100.0 * (1.0 - rss / var.max(1e-300));
+    let k = design.columns.len() + knobs_of(effects).len();
+    let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + k as f64 * (n as f64).ln();
+    let cv = cross_validate(&design, y);
+    let sigma2 = rss / (n - design.columns.len()).max(1) as f64;
+    let se: Vec<f64> = (0..solve.beta.len())
+        .map(|j| (sigma2 * solve.covariance[(j, j)]).max(0.0).sqrt())
+        .collect();
+    let parameters = name_parameters(
+        effects,
+        &nl,
+        &design,
+        &solve,
+        &se,
+        sigma2,
+        data,
+        start,
+        &scale,
+        effort.uncertainties,
+    );
+    Some(Fit {
+        effects: effects.iter().copied().collect(),
+        nonlinear: nl,
+        parameters,
+        rss,
+        samples: n,
+        nrmse_percent: nrmse,
+        vaf_percent: vaf,
+        bic,
+        cv_rmse: cv.iter().sum::<f64>() / cv.len().max(1) as f64,
+        cv_rmse_per_fold: cv,
+        prediction,
+        start,
+    })
+}
+
+/// Blocked cross-validation with the nonlinear parameters and contact gates fixed: the
+/// linear coefficients are refitted without each contiguous fifth of the record and
+/// tested on it.
+fn cross_validate(design: &Design, y: &[f64]) -> Vec<f64> {
+    let n = y.len();
+    (0..FOLDS)
+        .map(|f| {
+            let (lo, hi) = (f * n / FOLDS, (f + 1) * n / FOLDS);
+            let train: Vec<bool> = (0..n).map(|i| i < lo || i >= hi).collect();
+            match least_squares(design, y, Some(&train), &[]) {
+                Some(s) => {
+                    let e: f64 = (lo..hi)
+                        .map(|i| {
+                            let p: f64 = design
+                                .columns
+                                .iter()
+                                .zip(&s.beta)
+                                .map(|(c, b)| c[i] * b)
+                                .sum();
+                            (y[i] - p) * (y[i] - p)
+                        })
+                        .sum();
+                    (e / (hi - lo).max(1) as f64).sqrt()
+                }
+                None => f64::INFINITY,
+            }
+        })
+        .collect()
+}
+
+/// Physical names, SI values and standard errors of a fit's parameters.
+#[allow(clippy::too_many_arguments)]
+fn name_parameters(
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    design: &Design,
+    solve: &Solve,
+    se: &[f64],
+    sigma2: f64,
+    data: &Prepared,
+    start: usize,
+    scale: &Scales,
+    uncertainties: bool,
+) -> Vec<(String, f64, f64)> {
+    let has = |e: Effect| effects.contains(&e);
+    let l = scale.depth_m;
+    let col = |name: &str| design.names.iter().position(|n| *n == name);
+    let mut out = Vec::new();
+    let (e, se_e) = (solve.beta[0], se[0]);
+    // Elastic columns were built as L·(δ/L)^n: coefficient c multiplies it, so
+    // F = c·L^(1−n)·δⁿ, i.e. k = c·L^(1−n).
+    if has(Effect::PowerLawStiffness) {
+        let f = l.powf(1.0 - nl.n);
+        out.push(("k".into(), e * f, se_e * f));
+        out.push((
+            "n".into(),
+            nl.n,
+            nonlinear_se(
+                uncertainties,
+                data,
+                start,
+                effects,
+                nl,
+                Knob::Exponent,
+                sigma2,
+                scale,
+            ),
+        ));
+    } else if has(Effect::ExponentialStiffness) {
+        out.push(("m".into(), e, se_e));
+        out.push((
+            "b".into(),
+            nl.b,
+            nonlinear_se(
+                uncertainties,
+                data,
+                start,
+                effects,
+                nl,
+                Knob::StiffeningRate,
+                sigma2,
+                scale,
+            ),
+        ));
+    } else {
+        out.push(("kappa".into(), e, se_e));
+    }
+    let (d, se_d) = (solve.beta[1], se[1]);
+    if has(Effect::DepthDependentDamping) {
+        let f = l.powf(-nl.q);
+        out.push(("lambda".into(), d * f, se_d * f));
+        out.push((
+            "q".into(),
+            nl.q,
+            nonlinear_se(
+                uncertainties,
+                data,
+                start,
+                effects,
+                nl,
+                Knob::DampingExponent,
+                sigma2,
+                scale,
+            ),
+        ));
+    } else {
+        out.push(("lambda".into(), d, se_d));
+    }
+    if let Some(j) = col("relaxing") {
+        let c = solve.beta[j] / e;
+        let se_c = c.abs() * ((se[j] / solve.beta[j]).powi(2) + (se_e / e).powi(2)).sqrt();
+        out.push(("relaxed_fraction".into(), c, se_c));
+        out.push((
+            "rate_per_s".into(),
+            nl.nu,
+            nonlinear_se(
+                uncertainties,
+                data,
+                start,
+                effects,
+                nl,
+                Knob::RelaxationRate,
+                sigma2,
+                scale,
+            ),
+        ));
+    }
+    for name in ["mass_kg", "coulomb_n", "force_offset_n", "tare_n"] {
+        if let Some(j) = col(name) {
+            out.push((name.into(), solve.beta[j], se[j]));
+        }
+    }
+    for (knob, name) in [
+        (Knob::ContactShift, "contact_shift_m"),
+        (Knob::Delay, "delay_s"),
+        (Knob::PlasticFraction, "plastic_fraction"),
+        (Knob::SlipRate, "slip_rate_m_per_s"),
+    ] {
+        if knobs_of(effects).contains(&knob) {
+            out.push((
+                name.into(),
+                nl.get(knob),
+                nonlinear_se(uncertainties, data, start, effects, nl, knob, sigma2, scale),
+            ));
+        }
+    }
+    out.push((
+        "contact_position_m".into(),
+        // The first impact's contact position (the later contacts' is this + shift).
+        data.contact_position_m + nl.contact_m
+            - if has(Effect::ContactPointOffset) {
+                nl.contact_shift_m
+            } else {
+                0.0
+            },
+        nonlinear_se(
+            uncertainties,
+            data,
+            start,
+            effects,
+            nl,
+            Knob::ContactPosition,
+            sigma2,
+            scale,
+        ),
+    ));
+    out
+}
+
+/// Standard error of a nonlinear parameter from the curvature of the RSS at the
+/// optimum: var ≈ 2σ²/RSS'' (the linear coefficients re-solved at each point).
+#[allow(clippy::too_many_arguments)]
+fn nonlinear_se(
+    uncertainties: bool,
+    data: &Prepared,
+    start: usize,
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    k: Knob,
+    sigma2: f64,
+    scale: &Scales,
+) -> f64 {
+    if !uncertainties {
+        return f64::NAN;
+    }
+    let (lo, hi, _) = k.range(scale);
+    let x0 = nl.get(k);
+    let h = 1e-3 * (hi - lo).abs().max(x0.abs() * 1e-3);
+    let rss = |x: f64| {
+        let mut t = *nl;
+        t.set(k, x);
+        evaluate(data, start, effects, &t, scale, 2, None).map_or(f64::NAN, |r| r.0)
+    };
+    let curvature = (rss(x0 + h) - 2.0 * rss(x0) + rss(x0 - h)) / (h * h);
+    if curvature > 0.0 {
+        (2.0 * sigma2 / curvature).sqrt()
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The nonlinear parameters of a model: the contact position, then its effects' knobs.
+pub fn knobs_of(effects: &BTreeSet<Effect>) -> Vec<Knob> {
+    std::iter::once(Knob::ContactPosition)
+        .chain(effects.iter().filter_map(|e| e.knob()))
+        .collect()
+}
