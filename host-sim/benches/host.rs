@@ -2,7 +2,8 @@
 //! plus the per-sample trace, phase classification and the final fit-quality
 //! simulation) over a 60 s, 1 kHz record of the simulated plant (soft gel, the `gel-hc`
 //! scenario's motion and sensors, stretched to 60 s). The plant simulation itself is
-//! timed separately.
+//! timed separately, and so is the discrepancy workflow (`diagnose` from the
+//! Kelvin-Voigt baseline, candidates fitted on both cores) on the same record.
 //!
 //! `cargo bench -p host-sim --bench host`
 
@@ -10,7 +11,10 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use estimator_core::conditioning::ContactDetectorConfig;
 use estimator_core::ModelKind;
+use host_sim::diagnose::data::prepare;
+use host_sim::diagnose::{diagnose, Options};
 use host_sim::report::simulate_plant;
 use host_sim::runner::{run, RunOptions};
 use host_sim::scenarios;
@@ -47,6 +51,23 @@ fn host(c: &mut Criterion) {
     }
     group.bench_function("plant_simulation", |b| {
         b.iter(|| simulate_plant(black_box(&scenario)).expect("plant runs"))
+    });
+    group.finish();
+
+    let mut group = c.benchmark_group("diagnose_60s_1khz");
+    group.throughput(Throughput::Elements(samples));
+    let time_s: Vec<f64> = (0..log.position_m.len()).map(|i| i as f64 * 1e-3).collect();
+    group.bench_function("prepare_and_diagnose", |b| {
+        b.iter(|| {
+            let prepared = prepare(
+                &time_s,
+                black_box(&log.position_m),
+                black_box(&log.force_n),
+                ContactDetectorConfig::default(),
+            )
+            .expect("the record has contact");
+            diagnose(&prepared, &Options::default()).expect("baseline fits")
+        })
     });
     group.finish();
 }

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use estimator_core::ModelKind;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -156,3 +156,86 @@ pub const REAL_FILES: &[(&str, FileModels)] = &[
         ],
     ),
 ];
+
+/// A diagnosed file: the record at 1 kHz, notes on how it was read and prepared, the
+/// prepared log and the workflow's result.
+pub struct FileDiagnosis {
+    /// The record at 1 kHz.
+    pub record: Record,
+    /// How it was read and prepared, in words.
+    pub notes: Vec<String>,
+    /// The log as fitted (block means, depth, phases).
+    pub prepared: crate::diagnose::data::Prepared,
+    /// The result.
+    pub diagnosis: crate::diagnose::Diagnosis,
+}
+
+/// Runs the discrepancy workflow on `path` (read as `format`, resampled to 1 kHz). The
+/// contact detector is configured from the record as for `estimate` (onset threshold
+/// from the noise and range, unless overridden).
+///
+/// # Errors
+/// The reader's error (file, line, field), a log without contact or too short, or a
+/// baseline that cannot be fitted.
+pub fn diagnose_file(
+    path: &Path,
+    format: &str,
+    options: &crate::diagnose::Options,
+    overrides: &Overrides,
+    until_end_of: Option<Phase>,
+) -> Result<FileDiagnosis> {
+    let (native, record) = load(path, format)?;
+    let native_rate = native.sample_rate_hz().unwrap_or_else(|| {
+        (native.len() as f64 - 1.0)
+            / (native.time_s.last().copied().unwrap_or(1.0) - native.time_s[0]).max(1e-9)
+    });
+    let (run_options, mut notes) = setup::options_for_record(
+        ModelKind::KelvinVoigt,
+        &record.position_m,
+        &record.force_n,
+        &native.force_n,
+        native_rate,
+        overrides,
+    );
+    notes.splice(0..0, native.notes.iter().cloned());
+    notes.retain(|n| !n.starts_with("internal units") && !n.starts_with("state-variable"));
+    let prepared = crate::diagnose::data::prepare(
+        &record.time_s,
+        &record.position_m,
+        &record.force_n,
+        run_options.pipeline.contact,
+    )
+    .with_context(|| format!("{}", path.display()))?;
+    let mut prepared = prepared;
+    if let Some(phase) = until_end_of {
+        if !prepared.keep_until_end_of(phase) {
+            bail!(
+                "{}: no {} phase after the first contact long enough to fit (100 samples)",
+                path.display(),
+                phase.name()
+            );
+        }
+        notes.push(format!(
+            "fitted up to the end of the first {} phase, {:.3} s",
+            phase.name(),
+            prepared.time_s[prepared.len() - 1]
+        ));
+    }
+    notes.push(format!(
+        "fitted on {} samples of {:.1} ms (block means of the 1 kHz record)",
+        prepared.len(),
+        1e3 * prepared.dt
+    ));
+    let diagnosis = crate::diagnose::diagnose(&prepared, options).with_context(|| {
+        format!(
+            "{}: the baseline model cannot be fitted (no contact samples)",
+            path.display()
+        )
+    })?;
+    Ok(FileDiagnosis {
+        record,
+        notes,
+        prepared,
+        diagnosis,
+    })
+}

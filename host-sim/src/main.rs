@@ -10,7 +10,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use estimator_core::ModelKind;
-use host_sim::files::{estimate_file, FileRun, REAL_FILES};
+use host_sim::diagnose::{report as diagnosis_report, Baseline, Options as DiagnoseOptions};
+use host_sim::files::{diagnose_file, estimate_file, FileRun, REAL_FILES};
 use host_sim::phases::Phase;
 use host_sim::report::{self, ScenarioOutcome};
 use host_sim::runner;
@@ -71,6 +72,35 @@ enum Command {
         #[arg(long, value_enum)]
         phase: Vec<Phase>,
     },
+    /// Discrepancy workflow: fit a baseline model to a measured log, localise where the
+    /// simulation and the measurement disagree, add the missing physical effects one at
+    /// a time while significant, and report the steps (Markdown, plots, JSON).
+    Diagnose {
+        /// Input file: the `time_s,position_m,force_n` CSV or any format `estimate` reads.
+        file: PathBuf,
+        /// File format (auto-detected by default).
+        #[arg(long, default_value = "auto")]
+        format: String,
+        /// Model the workflow starts from.
+        #[arg(long, value_enum, default_value = "kelvin-voigt")]
+        baseline: Baseline,
+        /// Output folder for report.md, diagnosis.json and the plots.
+        #[arg(long, default_value = "out/diagnose")]
+        out: PathBuf,
+        /// Print the result as one JSON object to stdout.
+        #[arg(long)]
+        json: bool,
+        /// Most effects to add.
+        #[arg(long, default_value_t = 4)]
+        max_steps: usize,
+        /// Contact-onset threshold (N) (default: from the record's noise and range).
+        #[arg(long)]
+        onset_threshold_n: Option<f64>,
+        /// Fit only up to the end of the first segment of this phase (detected from the
+        /// motion): `loading` diagnoses the first loading curve alone.
+        #[arg(long, value_enum)]
+        until: Option<Phase>,
+    },
     /// Decode a captured telemetry stream (the firmware's UART, or QEMU's serial file)
     /// into one JSON object per frame on stdout.
     Telemetry {
@@ -119,6 +149,27 @@ fn main() -> ExitCode {
         Some(Command::Demo { out, data }) => demo(&out, &data),
         Some(Command::Simulate { scenario, out }) => simulate(&scenario, &out).map(|_| ()),
         Some(Command::Telemetry { file }) => decode_telemetry(&file),
+        Some(Command::Diagnose {
+            file,
+            format,
+            baseline,
+            out,
+            json,
+            max_steps,
+            onset_threshold_n,
+            until,
+        }) => {
+            let options = DiagnoseOptions {
+                baseline,
+                max_steps,
+                ..DiagnoseOptions::default()
+            };
+            let overrides = Overrides {
+                onset_threshold_n,
+                ..Overrides::default()
+            };
+            diagnose_one(&file, &format, &options, &overrides, until, &out, json)
+        }
         Some(Command::Estimate {
             model,
             files,
@@ -154,6 +205,58 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn diagnose_one(
+    path: &Path,
+    format: &str,
+    options: &DiagnoseOptions,
+    overrides: &Overrides,
+    until: Option<Phase>,
+    out: &Path,
+    json: bool,
+) -> Result<()> {
+    let started = Instant::now();
+    let run = diagnose_file(path, format, options, overrides, until)?;
+    let elapsed = started.elapsed().as_secs_f64();
+    let d = &run.diagnosis;
+    eprintln!("{} — diagnosis from {}", path.display(), d.baseline.name());
+    for note in &run.notes {
+        eprintln!("  · {note}");
+    }
+    eprintln!(
+        "  baseline: NRMSE {:.3} %, VAF {:.2} %",
+        d.baseline_fit.nrmse_percent, d.baseline_fit.vaf_percent
+    );
+    for (i, s) in d.steps.iter().enumerate() {
+        eprintln!(
+            "  step {}: + {}{}  NRMSE {:.3} % -> {:.3} %, BIC {:.0} -> {:.0}",
+            i + 1,
+            s.effect.id(),
+            s.replaces
+                .map_or(String::new(), |e| format!(" (replaces {})", e.id())),
+            s.before.nrmse_percent,
+            s.after.nrmse_percent,
+            s.before.bic,
+            s.after.bic
+        );
+    }
+    eprintln!(
+        "  final model: {} (NRMSE {:.3} %, VAF {:.2} %) in {elapsed:.2} s",
+        d.final_model(),
+        d.final_fit.nrmse_percent,
+        d.final_fit.vaf_percent
+    );
+    let name = path.display().to_string();
+    let report = diagnosis_report::write(out, &name, &run.prepared, d, options)?;
+    eprintln!("  report: {}", report.display());
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&diagnosis_report::json(&name, d))?
+        );
+    }
+    Ok(())
 }
 
 fn decode_telemetry(path: &Path) -> Result<()> {

@@ -1,0 +1,525 @@
+//! Reports of the discrepancy workflow: the JSON object of `host-sim diagnose --json`,
+//! a Markdown report and plots (measured vs simulated before and after, residual per
+//! phase, residual autocorrelation with its 99 % band) written to the output folder.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use serde_json::{json, Map, Value};
+
+use super::data::Prepared;
+use super::model::Fit;
+use super::{Candidate, Diagnosis, Localisation, Options, PHASE_ORDER};
+use crate::plots::{self, Chart, Series, PALETTE};
+
+/// Parameters of a fit as a JSON object `{name: value}` (SI units, names as in the
+/// report) and their standard errors as a second object (`null` where not estimated).
+fn parameters_json(fit: &Fit) -> (Value, Value) {
+    let mut values = Map::new();
+    let mut errors = Map::new();
+    for (name, value, se) in &fit.parameters {
+        values.insert(name.clone(), json!(value));
+        errors.insert(
+            name.clone(),
+            if se.is_finite() {
+                json!(se)
+            } else {
+                Value::Null
+            },
+        );
+    }
+    (Value::Object(values), Value::Object(errors))
+}
+
+/// The `--json` object: `{"baseline", "steps": [{"effect", "parameters",
+/// "nrmse_percent_before", "nrmse_percent_after", …}], "effects_added", "final_model",
+/// "nrmse_percent_final", …}`. `file` names the input.
+pub fn json(file: &str, d: &Diagnosis) -> Value {
+    let steps: Vec<Value> = d
+        .steps
+        .iter()
+        .map(|s| {
+            let (parameters, uncertainties) = parameters_json(&s.after);
+            json!({
+                "effect": s.effect.id(),
+                "replaces": s.replaces.map(|e| e.id()),
+                "parameters": parameters,
+                "standard_errors": uncertainties,
+                "nrmse_percent_before": s.before.nrmse_percent,
+                "nrmse_percent_after": s.after.nrmse_percent,
+                "vaf_percent_after": s.after.vaf_percent,
+                "bic_before": s.before.bic,
+                "bic_after": s.after.bic,
+                "cv_rmse_n_before": s.before.cv_rmse,
+                "cv_rmse_n_after": s.after.cv_rmse,
+            })
+        })
+        .collect();
+    let (parameters, uncertainties) = parameters_json(&d.final_fit);
+    json!({
+        "file": file,
+        "baseline": d.baseline.name(),
+        "nrmse_percent_baseline": d.baseline_fit.nrmse_percent,
+        "vaf_percent_baseline": d.baseline_fit.vaf_percent,
+        "steps": steps,
+        "effects_added": d.effects_added(),
+        "final_model": d.final_model(),
+        "final_parameters": parameters,
+        "final_standard_errors": uncertainties,
+        "nrmse_percent_final": d.final_fit.nrmse_percent,
+        "vaf_percent_final": d.final_fit.vaf_percent,
+    })
+}
+
+/// Parameters as `name = value ± se` (SI; value only where no error was estimated).
+fn parameters_text(fit: &Fit) -> String {
+    fit.parameters
+        .iter()
+        .map(|(n, v, se)| {
+            if se.is_finite() && *se > 0.0 {
+                format!("{n} = {v:.4e} ± {se:.2e}")
+            } else {
+                format!("{n} = {v:.4e}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The candidate's own parameters (those its effect adds), as `name = value`.
+fn shape_text(c: &Candidate) -> String {
+    let own: &[&str] = match c.effect.id() {
+        "power_law_stiffness" => &["n"],
+        "exponential_stiffness" => &["b"],
+        "depth_dependent_damping" => &["q"],
+        "relaxation" => &["relaxed_fraction", "rate_per_s"],
+        "force_offset" => &["force_offset_n"],
+        "contact_point_offset" => &["contact_shift_m"],
+        "inertia" => &["mass_kg"],
+        "time_delay" => &["delay_s"],
+        "coulomb_friction" => &["coulomb_n"],
+        "plastic_set" => &["plastic_fraction"],
+        _ => &[],
+    };
+    own.iter()
+        .filter_map(|n| c.fit.parameter(n).map(|v| format!("{n} = {v:.3e}")))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn candidates_table(out: &mut String, candidates: &[Candidate]) {
+    out.push_str(
+        "| candidate | replaces | NRMSE % | ΔBIC | CV gain % | folds better | significant |\n",
+    );
+    out.push_str("|---|---|---|---|---|---|---|---|\n");
+    for c in candidates {
+        let _ = writeln!(
+            out,
+            "| `{}` | {} | {:.3} | {:.1} | {:.2} | {}/5 | {} | {} |",
+            c.effect.id(),
+            c.replaces
+                .map_or("—".to_string(), |e| format!("`{}`", e.id())),
+            c.fit.nrmse_percent,
+            c.delta_bic,
+            100.0 * c.cv_improvement,
+            c.folds_better,
+            if c.significant {
+                "yes"
+            } else if !c.physical {
+                "no (nonphysical)"
+            } else {
+                "no"
+            },
+            shape_text(c)
+        );
+    }
+}
+
+fn localisation_text(out: &mut String, l: &Localisation) {
+    let outside: Vec<String> = l
+        .autocorrelation
+        .iter()
+        .enumerate()
+        .skip(1)
+        .filter(|(_, r)| r.abs() > l.band)
+        .map(|(k, _)| k.to_string())
+        .collect();
+    let _ = writeln!(
+        out,
+        "- residual autocorrelation: {} of 50 lags outside the 99 % band ±{:.3}{}",
+        outside.len(),
+        l.band,
+        if outside.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " (first lags: {})",
+                outside
+                    .iter()
+                    .take(8)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    );
+    let mut cross: Vec<(&String, &(f64, i32))> = l.cross_correlation.iter().collect();
+    cross.sort_by(|a, b| b.1 .0.abs().total_cmp(&a.1 .0.abs()));
+    let text: Vec<String> = cross
+        .iter()
+        .map(|(name, (r, lag))| {
+            format!(
+                "{name} {r:+.2}{}{}",
+                if *lag != 0 {
+                    format!(" (lag {lag})")
+                } else {
+                    String::new()
+                },
+                if r.abs() > l.band { "*" } else { "" }
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        out,
+        "- largest cross-correlations with the residual (* outside the band): {}",
+        text.join(", ")
+    );
+    let windows: Vec<String> = l
+        .worst_windows
+        .iter()
+        .map(|(a, b, rms, phase)| format!("{a:.2}–{b:.2} s ({phase}, RMS {rms:.3e} N)"))
+        .collect();
+    let _ = writeln!(out, "- worst 0.5 s windows: {}", windows.join("; "));
+}
+
+/// The Markdown report of a diagnosis of `file`, with the plot files named by `plots`
+/// (relative to the report).
+pub fn markdown(
+    file: &str,
+    data: &Prepared,
+    d: &Diagnosis,
+    options: &Options,
+    plots: &[String],
+) -> String {
+    let mut out = String::new();
+    let f = &d.final_fit;
+    let _ = writeln!(out, "# Discrepancy diagnosis: `{file}`\n");
+    let _ = writeln!(
+        out,
+        "Baseline **{}**; final model **{}**: NRMSE {:.3} % → {:.3} % (VAF {:.2} % → {:.2} %).\n",
+        d.baseline.name(),
+        d.final_model(),
+        d.baseline_fit.nrmse_percent,
+        f.nrmse_percent,
+        d.baseline_fit.vaf_percent,
+        f.vaf_percent
+    );
+    let start = f.start;
+    let _ = writeln!(
+        out,
+        "Fit window {:.3}–{:.3} s: {} samples, each the mean of {} raw samples ({:.1} ms). Force offset removed {:.4e} N; contact position (first impact) {:.6e} m; noise of one fitting sample {:.3e} N.\n",
+        data.time_s[start],
+        data.time_s[data.len() - 1],
+        f.samples,
+        data.block,
+        1e3 * data.dt,
+        data.force_offset_n,
+        data.contact_position_m,
+        data.noise_n
+    );
+    let _ = writeln!(
+        out,
+        "A candidate is accepted when BIC falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps).\n",
+        options.min_bic_drop,
+        super::model::FOLDS,
+        100.0 * options.min_cv_improvement,
+        options.min_folds_better,
+        options.max_steps
+    );
+    out.push_str("## Steps\n\n");
+    out.push_str("| step | effect added | parameters after (SI, ± 1 s.e.) | NRMSE % before → after | BIC before → after |\n");
+    out.push_str("|---|---|---|---|---|\n");
+    let _ = writeln!(
+        out,
+        "| 0 | baseline `{}` | {} | {:.3} | {:.0} |",
+        d.baseline.name(),
+        parameters_text(&d.baseline_fit),
+        d.baseline_fit.nrmse_percent,
+        d.baseline_fit.bic
+    );
+    for (i, s) in d.steps.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "| {} | `{}`{} | {} | {:.3} → {:.3} | {:.0} → {:.0} |",
+            i + 1,
+            s.effect.id(),
+            s.replaces
+                .map_or(String::new(), |e| format!(" (replaces `{}`)", e.id())),
+            parameters_text(&s.after),
+            s.before.nrmse_percent,
+            s.after.nrmse_percent,
+            s.before.bic,
+            s.after.bic
+        );
+    }
+    out.push_str("\n## Residual RMS per phase [N]\n\n");
+    let mut header = "| phase | baseline |".to_string();
+    let mut rule = "|---|---|".to_string();
+    for s in &d.steps {
+        let _ = write!(header, " + `{}` |", s.effect.id());
+        rule.push_str("---|");
+    }
+    let _ = writeln!(out, "{header}\n{rule}");
+    let localisations: Vec<&Localisation> = d
+        .steps
+        .first()
+        .map(|s| &s.localisation_before)
+        .into_iter()
+        .chain(d.steps.iter().map(|s| &s.localisation_after))
+        .collect();
+    let localisations = if localisations.is_empty() {
+        vec![&d.final_localisation]
+    } else {
+        localisations
+    };
+    for phase in PHASE_ORDER {
+        let mut row = format!("| {} |", phase.name());
+        let mut any = false;
+        for l in &localisations {
+            match l.phase_rms_n.get(phase.name()) {
+                Some((rms, n)) => {
+                    any = true;
+                    let _ = write!(row, " {rms:.3e} ({n}) |");
+                }
+                None => row.push_str(" — |"),
+            }
+        }
+        if any {
+            let _ = writeln!(out, "{row}");
+        }
+    }
+    out.push_str("\n(number of fitting samples in the phase in parentheses)\n");
+    for (i, s) in d.steps.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "\n## Step {}: candidates on `{}`\n",
+            i + 1,
+            s.before
+                .effects
+                .iter()
+                .fold(d.baseline.name().to_string(), |a, e| a + " + " + e.id())
+        );
+        out.push_str("Where the residual of the model before this step sat:\n\n");
+        localisation_text(&mut out, &s.localisation_before);
+        out.push('\n');
+        candidates_table(&mut out, &s.candidates);
+    }
+    let _ = writeln!(out, "\n## Final model `{}`\n", d.final_model());
+    localisation_text(&mut out, &d.final_localisation);
+    if !d.final_candidates.is_empty() {
+        out.push_str("\nNo further candidate is significant:\n\n");
+        candidates_table(&mut out, &d.final_candidates);
+    }
+    if !plots.is_empty() {
+        out.push_str("\n## Plots\n\n");
+        for p in plots {
+            let _ = writeln!(out, "![{p}]({p})\n");
+        }
+    }
+    out
+}
+
+/// Writes `fit`, `residual` and `autocorrelation` plots (PNG and SVG) into `dir`;
+/// returns the PNG file names.
+///
+/// # Errors
+/// If a file cannot be written.
+pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<String>> {
+    let start = d.final_fit.start;
+    let t = &data.time_s[start..];
+    let series = |fit: &Fit| -> Vec<(f64, f64)> {
+        t.iter()
+            .copied()
+            .zip(fit.prediction.iter().copied())
+            .collect()
+    };
+    let measured: Vec<(f64, f64)> = t
+        .iter()
+        .copied()
+        .zip(data.force_n[start..].iter().copied())
+        .collect();
+    let max = 4000;
+    let final_name = format!("final: {}", d.final_model());
+    let fit_chart = Chart {
+        title: "Measured vs simulated force".into(),
+        x_label: "time [s]".into(),
+        y_label: "force [N]".into(),
+        series: vec![
+            Series::dashed("measured", plots::thin(measured, max), PALETTE[5]),
+            Series::solid(
+                format!("baseline: {}", d.baseline.name()),
+                plots::thin(series(&d.baseline_fit), max),
+                PALETTE[1],
+            ),
+            Series::solid(
+                final_name.clone(),
+                plots::thin(series(&d.final_fit), max),
+                PALETTE[0],
+            ),
+        ],
+    };
+    let depth: Vec<f64> = data.depth_m[start..].to_vec();
+    let by_depth = |y: &[f64]| -> Vec<(f64, f64)> {
+        depth
+            .iter()
+            .copied()
+            .zip(y.iter().copied())
+            .filter(|(x, _)| *x > 0.0)
+            .collect()
+    };
+    let hysteresis = Chart {
+        title: "Force vs depth (in contact)".into(),
+        x_label: "depth δ [m]".into(),
+        y_label: "force [N]".into(),
+        series: vec![
+            Series::dashed(
+                "measured",
+                plots::thin(by_depth(&data.force_n[start..]), max),
+                PALETTE[5],
+            ),
+            Series::solid(
+                "baseline",
+                plots::thin(by_depth(&d.baseline_fit.prediction), max),
+                PALETTE[1],
+            ),
+            Series::solid(
+                "final",
+                plots::thin(by_depth(&d.final_fit.prediction), max),
+                PALETTE[0],
+            ),
+        ],
+    };
+    plots::save(&[fit_chart, hysteresis], &dir.join("fit"))?;
+
+    let residual =
+        |fit: &Fit| -> Vec<(f64, f64)> { t.iter().copied().zip(fit.residual(data)).collect() };
+    let residual_chart = Chart {
+        title: "Residual (measured − simulated)".into(),
+        x_label: "time [s]".into(),
+        y_label: "residual [N]".into(),
+        series: vec![
+            Series::solid(
+                "baseline",
+                plots::thin(residual(&d.baseline_fit), max),
+                PALETTE[1],
+            ),
+            Series::solid(
+                "final",
+                plots::thin(residual(&d.final_fit), max),
+                PALETTE[0],
+            ),
+        ],
+    };
+    // Residual RMS per phase, one curve per model along the workflow: x = phase number.
+    let mut per_phase = Vec::new();
+    let mut models: Vec<(String, &Localisation)> = Vec::new();
+    if let Some(first) = d.steps.first() {
+        models.push(("baseline".into(), &first.localisation_before));
+    }
+    for s in &d.steps {
+        models.push((format!("+ {}", s.effect.id()), &s.localisation_after));
+    }
+    if models.is_empty() {
+        models.push(("baseline".into(), &d.final_localisation));
+    }
+    for (i, (name, l)) in models.iter().enumerate() {
+        let points: Vec<(f64, f64)> = PHASE_ORDER
+            .iter()
+            .enumerate()
+            .filter_map(|(k, p)| l.phase_rms_n.get(p.name()).map(|(rms, _)| (k as f64, *rms)))
+            .collect();
+        per_phase.push(Series::solid(
+            name.clone(),
+            points,
+            PALETTE[i % PALETTE.len()],
+        ));
+    }
+    let phase_chart = Chart {
+        title: format!(
+            "Residual RMS per phase (0 {}, 1 {}, 2 {}, 3 {}, 4 {})",
+            PHASE_ORDER[0].name(),
+            PHASE_ORDER[1].name(),
+            PHASE_ORDER[2].name(),
+            PHASE_ORDER[3].name(),
+            PHASE_ORDER[4].name()
+        ),
+        x_label: "phase".into(),
+        y_label: "RMS residual [N]".into(),
+        series: per_phase,
+    };
+    plots::save(&[residual_chart, phase_chart], &dir.join("residual"))?;
+
+    let lag_ms = 1e3 * data.dt;
+    let acf = |l: &Localisation| -> Vec<(f64, f64)> {
+        l.autocorrelation
+            .iter()
+            .enumerate()
+            .map(|(k, r)| (k as f64 * lag_ms, *r))
+            .collect()
+    };
+    let first = d
+        .steps
+        .first()
+        .map_or(&d.final_localisation, |s| &s.localisation_before);
+    let band = d.final_localisation.band;
+    let last_lag = (d.final_localisation.autocorrelation.len().max(2) - 1) as f64 * lag_ms;
+    let acf_chart = Chart {
+        title: "Residual autocorrelation with the 99 % band".into(),
+        x_label: "lag [ms]".into(),
+        y_label: "autocorrelation".into(),
+        series: vec![
+            Series::solid("baseline", acf(first), PALETTE[1]),
+            Series::solid("final", acf(&d.final_localisation), PALETTE[0]),
+            Series::dashed(
+                "+99 % band",
+                vec![(0.0, band), (last_lag, band)],
+                PALETTE[5],
+            ),
+            Series::dashed(
+                "−99 % band",
+                vec![(0.0, -band), (last_lag, -band)],
+                PALETTE[5],
+            ),
+        ],
+    };
+    plots::save(&[acf_chart], &dir.join("autocorrelation"))?;
+    Ok(vec![
+        "fit.png".into(),
+        "residual.png".into(),
+        "autocorrelation.png".into(),
+    ])
+}
+
+/// Writes `report.md`, `diagnosis.json` and the plots into `dir` (created if needed);
+/// returns the report's path.
+///
+/// # Errors
+/// If the folder or a file cannot be written.
+pub fn write(
+    dir: &Path,
+    file: &str,
+    data: &Prepared,
+    d: &Diagnosis,
+    options: &Options,
+) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let plots = write_plots(dir, data, d)?;
+    let report = dir.join("report.md");
+    std::fs::write(&report, markdown(file, data, d, options, &plots))
+        .with_context(|| format!("writing {}", report.display()))?;
+    let path = dir.join("diagnosis.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json(file, d))?)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(report)
+}

@@ -1,0 +1,216 @@
+//! The discrepancy workflow on the shipped real files (`../shared/data`), through the
+//! library and through `host-sim diagnose`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use host_sim::diagnose::{Diagnosis, Options};
+use host_sim::files::diagnose_file;
+use host_sim::phases::Phase;
+use host_sim::setup::Overrides;
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(name)
+}
+
+fn diagnosed(name: &str, until: Option<Phase>) -> Diagnosis {
+    diagnose_file(
+        &data(name),
+        "auto",
+        &Options::default(),
+        &Overrides::default(),
+        until,
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e:#}"))
+    .diagnosis
+}
+
+/// Every step lowers the NRMSE, and the final model closes a real part of the gap.
+fn gap_shrinks(name: &str, d: &Diagnosis, factor: f64) {
+    assert!(!d.steps.is_empty(), "{name}: nothing added");
+    for s in &d.steps {
+        assert!(
+            s.after.nrmse_percent < s.before.nrmse_percent,
+            "{name}: {} did not lower the NRMSE",
+            s.effect.id()
+        );
+        assert!(
+            s.after.bic < s.before.bic - 10.0,
+            "{name}: {} did not lower the BIC by 10",
+            s.effect.id()
+        );
+    }
+    assert!(
+        d.final_fit.nrmse_percent <= factor * d.baseline_fit.nrmse_percent,
+        "{name}: NRMSE {:.3} % -> {:.3} %",
+        d.baseline_fit.nrmse_percent,
+        d.final_fit.nrmse_percent
+    );
+}
+
+/// The AFM stress-relaxation test holds the cantilever at constant height for 30 s
+/// while the force relaxes by 64 %: relaxation is what a spring-damper misses first.
+#[test]
+fn afm_stress_relaxation_names_relaxation_first() {
+    let d = diagnosed("afm/cell-stress-relaxation.tab", None);
+    assert_eq!(d.steps[0].effect.id(), "relaxation", "{}", d.final_model());
+    let f = d.steps[0]
+        .after
+        .parameter("relaxed_fraction")
+        .expect("relaxation parameters");
+    assert!((0.3..1.0).contains(&f), "relaxed fraction {f}");
+    gap_shrinks("cell-stress-relaxation", &d, 0.25);
+}
+
+/// The steel nanoindentation loading curve (load ramp to 3000 µN, up to the end of the
+/// ramp): a stiffening elastic law is what a linear spring misses first. The power law
+/// is significant with Kick's exponent for a sharp indenter (P ∝ h², n near 2); the
+/// exponential law fits this curve slightly better and is the one added (see the README
+/// and the closing note of the issue: the expected power law is not what wins).
+#[test]
+fn steel_loading_names_a_stiffening_law_first() {
+    let d = diagnosed("nanoindentation/steel-hysitron.txt", Some(Phase::Loading));
+    let first = d.steps[0].effect.id();
+    assert!(
+        first == "power_law_stiffness" || first == "exponential_stiffness",
+        "first effect {first}"
+    );
+    let power = d.steps[0]
+        .candidates
+        .iter()
+        .find(|c| c.effect.id() == "power_law_stiffness")
+        .expect("power law tried");
+    assert!(
+        power.significant,
+        "power law not significant: ΔBIC {}",
+        power.delta_bic
+    );
+    let n = power.fit.parameter("n").expect("exponent");
+    assert!((1.5..=2.2).contains(&n), "n = {n}");
+    gap_shrinks("steel loading", &d, 0.2);
+}
+
+#[test]
+fn gap_shrinks_on_the_whole_steel_indentation() {
+    let d = diagnosed("nanoindentation/steel-hysitron.txt", None);
+    gap_shrinks("steel-hysitron", &d, 0.25);
+}
+
+/// Ecoflex compression to 67 % strain: strong stiffening (local log-log slope 1.1 →
+/// 2.3), so a stiffening law comes first.
+#[test]
+fn silicone_compression_names_stiffening_first_and_shrinks() {
+    let d = diagnosed("silicone-compression/ecoflex-00-10-A1.csv", None);
+    let first = d.steps[0].effect.id();
+    assert!(
+        first == "exponential_stiffness" || first == "power_law_stiffness",
+        "first effect {first}"
+    );
+    gap_shrinks("ecoflex", &d, 0.2);
+}
+
+#[test]
+fn gap_shrinks_on_the_afm_creep_record() {
+    let d = diagnosed("afm/brain-creep-jpk.txt", None);
+    gap_shrinks("brain-creep", &d, 0.9);
+}
+
+/// `host-sim diagnose FILE --json --out DIR`: one JSON object with the documented keys on
+/// stdout, and the report, JSON and plots in the folder.
+#[test]
+fn cli_writes_report_plots_and_json() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["diagnose", "--json", "--out"])
+        .arg(dir.path())
+        .arg(data("afm/cell-stress-relaxation.tab"))
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["baseline"], "kelvin-voigt");
+    let steps = v["steps"].as_array().expect("steps");
+    assert_eq!(steps[0]["effect"], "relaxation");
+    for s in steps {
+        assert!(s["parameters"].is_object());
+        assert!(
+            s["nrmse_percent_after"].as_f64().unwrap()
+                < s["nrmse_percent_before"].as_f64().unwrap()
+        );
+    }
+    let added: Vec<&str> = v["effects_added"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e.as_str().unwrap())
+        .collect();
+    assert_eq!(added[0], "relaxation");
+    let final_model = v["final_model"].as_str().unwrap();
+    assert_eq!(
+        final_model,
+        ["kelvin-voigt"]
+            .into_iter()
+            .chain(added.iter().copied())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    );
+    assert!(
+        v["nrmse_percent_final"].as_f64().unwrap()
+            < steps[0]["nrmse_percent_before"].as_f64().unwrap()
+    );
+    for f in [
+        "report.md",
+        "diagnosis.json",
+        "fit.png",
+        "fit.svg",
+        "residual.png",
+        "residual.svg",
+        "autocorrelation.png",
+        "autocorrelation.svg",
+    ] {
+        let p = dir.path().join(f);
+        assert!(
+            std::fs::metadata(&p)
+                .map(|m| m.len() > 100)
+                .unwrap_or(false),
+            "{} missing",
+            p.display()
+        );
+    }
+    let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    assert!(report.contains("| 1 | `relaxation`"), "{report}");
+    assert!(report.contains("Residual RMS per phase"));
+}
+
+/// Bad input: the reader's error with the file named, exit code 1, no panic.
+#[test]
+fn cli_reports_a_log_without_contact() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("flat.csv");
+    let mut csv = String::from("time_s,position_m,force_n\n");
+    for i in 0..1000 {
+        csv.push_str(&format!(
+            "{},{},{}\n",
+            i as f64 * 1e-3,
+            0.0,
+            0.001 * ((i * 7919) % 13) as f64
+        ));
+    }
+    std::fs::write(&path, csv).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["diagnose", "--out"])
+        .arg(dir.path())
+        .arg(&path)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains(&format!("error: {}: no contact found", path.display())),
+        "{stderr}"
+    );
+}
