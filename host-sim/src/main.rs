@@ -470,9 +470,29 @@ fn demo(out: &Path, data: &Path) -> Result<()> {
     }
     report::write_text(&out.join("files").join("summary.md"), &table)?;
     eprintln!("\n{table}");
+    eprintln!("\n== Discrepancy diagnosis of the measured files (from Kelvin-Voigt)");
+    let options = DiagnoseOptions::default();
+    let runs = REAL_FILES
+        .iter()
+        .map(|(file, _)| (*file, None))
+        .chain([("nanoindentation/steel-hysitron.txt", Some(Phase::Loading))]);
+    for (file, until) in runs {
+        let name = stem(Path::new(file)) + until.map_or("", |_| "-loading");
+        let path = data.join(file);
+        diagnose_one(
+            &path,
+            "auto",
+            &options,
+            &Overrides::default(),
+            until,
+            &out.join("diagnose").join(name),
+            false,
+        )?;
+    }
     eprintln!(
-        "done in {:.1} s: scenario plots and tables in {}/scenarios, file results in {}/files",
+        "done in {:.1} s: scenario plots and tables in {}/scenarios, file results in {}/files, diagnoses in {}/diagnose",
         t0.elapsed().as_secs_f64(),
+        out.display(),
         out.display(),
         out.display()
     );
