@@ -39,6 +39,14 @@ pub fn load(path: &Path, format: &str) -> Result<(Record, Record)> {
     Ok((native, uniform))
 }
 
+/// The file's own sampling rate \[Hz\]: exact when uniform, else the mean over its span.
+fn native_rate_hz(native: &Record) -> f64 {
+    native.sample_rate_hz().unwrap_or_else(|| {
+        (native.len() as f64 - 1.0)
+            / (native.time_s.last().copied().unwrap_or(1.0) - native.time_s[0]).max(1e-9)
+    })
+}
+
 /// Estimation on one file: the record, options used and the result.
 pub struct FileRun {
     /// The record at 1 kHz.
@@ -73,10 +81,7 @@ pub fn estimate_file(
     phases: Option<Vec<Phase>>,
 ) -> Result<FileRun> {
     let (native, record) = load(path, format)?;
-    let native_rate = native.sample_rate_hz().unwrap_or_else(|| {
-        (native.len() as f64 - 1.0)
-            / (native.time_s.last().copied().unwrap_or(1.0) - native.time_s[0]).max(1e-9)
-    });
+    let native_rate = native_rate_hz(&native);
     let (mut options, mut notes) = setup::options_for_record(
         model,
         &record.position_m,
@@ -185,10 +190,7 @@ pub fn diagnose_file(
     until_end_of: Option<Phase>,
 ) -> Result<FileDiagnosis> {
     let (native, record) = load(path, format)?;
-    let native_rate = native.sample_rate_hz().unwrap_or_else(|| {
-        (native.len() as f64 - 1.0)
-            / (native.time_s.last().copied().unwrap_or(1.0) - native.time_s[0]).max(1e-9)
-    });
+    let native_rate = native_rate_hz(&native);
     let (run_options, mut notes) = setup::options_for_record(
         ModelKind::KelvinVoigt,
         &record.position_m,

@@ -308,19 +308,7 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
     .expect("valid plant");
     let mut acquisition = crate::plant::Acquisition::new(&config, 0.0).expect("valid calibration");
     let n = (17.0 / T) as usize;
-    let mut log = SimulatedLog::default();
-    for _ in 0..n {
-        let s = plant.step();
-        let raw = acquisition.convert(&s);
-        log.time_s.push(s.time_s);
-        log.position_m.push(f64::from(raw.position_m));
-        log.force_n.push(f64::from(raw.force_n));
-        log.saturated.push(raw.saturated);
-        log.true_depth_m.push(s.true_depth_m);
-        log.true_force_n.push(s.true_force_n);
-        log.adc_code.push(s.adc_code);
-        log.encoder_raw.push(s.encoder_raw);
-    }
+    let mut log = crate::report::record_plant(&mut plant, &mut acquisition, n);
     let mut noiseless = log.true_force_n.clone();
     // End of the first contact: the probe back above the surface after the first touch.
     let first_touch = log.true_depth_m.iter().position(|d| *d > 0.0).unwrap_or(n);

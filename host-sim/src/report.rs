@@ -43,6 +43,12 @@ pub fn simulate_plant(scenario: &Scenario) -> Result<SimulatedLog> {
     let mut plant = Plant::new(scenario.plant.clone(), (scenario.materials)())?;
     let mut acquisition = Acquisition::new(&scenario.plant, 0.0)?;
     let n = (scenario.duration_s / scenario.plant.sample_time_s).round() as usize;
+    Ok(record_plant(&mut plant, &mut acquisition, n))
+}
+
+/// Steps `plant` `n` times and records what `acquisition` makes of each sample (the
+/// measured log) next to the plant's truth and raw codes.
+pub fn record_plant(plant: &mut Plant, acquisition: &mut Acquisition, n: usize) -> SimulatedLog {
     let mut log = SimulatedLog::default();
     for _ in 0..n {
         let s = plant.step();
@@ -56,7 +62,7 @@ pub fn simulate_plant(scenario: &Scenario) -> Result<SimulatedLog> {
         log.adc_code.push(s.adc_code);
         log.encoder_raw.push(s.encoder_raw);
     }
-    Ok(log)
+    log
 }
 
 /// Outcome of one estimator in a scenario.

@@ -1134,6 +1134,8 @@ fn name_parameters(
     let has = |e: Effect| effects.contains(&e);
     let l = scale.depth_m;
     let col = |name: &str| design.names.iter().position(|n| *n == name);
+    let knob_se =
+        |knob: Knob| nonlinear_se(uncertainties, data, start, effects, nl, knob, sigma2, scale);
     let mut out = Vec::new();
     let (e, se_e) = (solve.beta[0], se[0]);
     // Elastic columns were built as L·(δ/L)^n: coefficient c multiplies it, so
@@ -1141,36 +1143,10 @@ fn name_parameters(
     if has(Effect::PowerLawStiffness) {
         let f = l.powf(1.0 - nl.n);
         out.push(("k".into(), e * f, se_e * f));
-        out.push((
-            "n".into(),
-            nl.n,
-            nonlinear_se(
-                uncertainties,
-                data,
-                start,
-                effects,
-                nl,
-                Knob::Exponent,
-                sigma2,
-                scale,
-            ),
-        ));
+        out.push(("n".into(), nl.n, knob_se(Knob::Exponent)));
     } else if has(Effect::ExponentialStiffness) {
         out.push(("m".into(), e, se_e));
-        out.push((
-            "b".into(),
-            nl.b,
-            nonlinear_se(
-                uncertainties,
-                data,
-                start,
-                effects,
-                nl,
-                Knob::StiffeningRate,
-                sigma2,
-                scale,
-            ),
-        ));
+        out.push(("b".into(), nl.b, knob_se(Knob::StiffeningRate)));
     } else {
         out.push(("kappa".into(), e, se_e));
     }
@@ -1178,20 +1154,7 @@ fn name_parameters(
     if has(Effect::DepthDependentDamping) {
         let f = l.powf(-nl.q);
         out.push(("lambda".into(), d * f, se_d * f));
-        out.push((
-            "q".into(),
-            nl.q,
-            nonlinear_se(
-                uncertainties,
-                data,
-                start,
-                effects,
-                nl,
-                Knob::DampingExponent,
-                sigma2,
-                scale,
-            ),
-        ));
+        out.push(("q".into(), nl.q, knob_se(Knob::DampingExponent)));
     } else {
         out.push(("lambda".into(), d, se_d));
     }
@@ -1199,20 +1162,7 @@ fn name_parameters(
         let c = solve.beta[j] / e;
         let se_c = c.abs() * ((se[j] / solve.beta[j]).powi(2) + (se_e / e).powi(2)).sqrt();
         out.push(("relaxed_fraction".into(), c, se_c));
-        out.push((
-            "rate_per_s".into(),
-            nl.nu,
-            nonlinear_se(
-                uncertainties,
-                data,
-                start,
-                effects,
-                nl,
-                Knob::RelaxationRate,
-                sigma2,
-                scale,
-            ),
-        ));
+        out.push(("rate_per_s".into(), nl.nu, knob_se(Knob::RelaxationRate)));
     }
     for name in ["mass_kg", "coulomb_n", "force_offset_n", "tare_n"] {
         if let Some(j) = col(name) {
@@ -1226,11 +1176,7 @@ fn name_parameters(
         (Knob::SlipRate, "slip_rate_m_per_s"),
     ] {
         if knobs_of(effects).contains(&knob) {
-            out.push((
-                name.into(),
-                nl.get(knob),
-                nonlinear_se(uncertainties, data, start, effects, nl, knob, sigma2, scale),
-            ));
+            out.push((name.into(), nl.get(knob), knob_se(knob)));
         }
     }
     out.push((
@@ -1242,16 +1188,7 @@ fn name_parameters(
             } else {
                 0.0
             },
-        nonlinear_se(
-            uncertainties,
-            data,
-            start,
-            effects,
-            nl,
-            Knob::ContactPosition,
-            sigma2,
-            scale,
-        ),
+        knob_se(Knob::ContactPosition),
     ));
     out
 }
