@@ -15,7 +15,8 @@ use std::path::Path;
 
 use super::error::{ReadError, ReadErrorKind};
 use super::text::{
-    decode_utf8_or_latin1, find_columns, lines, parse_cell, segments_from_labels, short, Samples,
+    cell, check_row_length, decode_utf8_or_latin1, find_columns, lines, parse_cell,
+    segments_from_labels, short, Samples,
 };
 use crate::record::{Format, Record};
 
@@ -62,24 +63,12 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
     let mut segment_ids: Vec<Option<u32>> = Vec::with_capacity(rows.len());
     for (line, raw) in rows {
         let cells: Vec<&str> = raw.split('\t').collect();
-        if cells.len() != header.len() {
-            return Err(ReadError::at(
-                path,
-                line,
-                None,
-                ReadErrorKind::RowLength {
-                    expected: header.len(),
-                    found: cells.len(),
-                    header_line,
-                },
-            ));
-        }
-        let cell = |i: usize| cells.get(i).copied().unwrap_or("");
-        let force = parse_cell(path, line, FORCE, cell(i_f))?;
-        let height = parse_cell(path, line, HEIGHT, cell(ih))?;
-        let t = parse_cell(path, line, TIME, cell(it))?;
+        check_row_length(path, line, cells.len(), header.len(), header_line)?;
+        let force = parse_cell(path, line, FORCE, cell(&cells, i_f))?;
+        let height = parse_cell(path, line, HEIGHT, cell(&cells, ih))?;
+        let t = parse_cell(path, line, TIME, cell(&cells, it))?;
         let segment = match i_seg {
-            Some(i) => Some(segment_index(path, line, cell(i))?),
+            Some(i) => Some(segment_index(path, line, cell(&cells, i))?),
             None => None,
         };
         // The README says "tip position = height − F/k"; the data says otherwise.

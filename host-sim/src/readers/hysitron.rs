@@ -15,8 +15,8 @@ use std::path::Path;
 
 use super::error::{ReadError, ReadErrorKind};
 use super::text::{
-    decode_latin1, find_unit_column, lines, parse_cell, segments_from_labels, short, Samples,
-    FORCE_UNITS, LENGTH_UNITS, TIME_UNITS,
+    cell, check_row_length, decode_latin1, find_unit_column, lines, parse_cell,
+    segments_from_labels, short, Samples, FORCE_UNITS, LENGTH_UNITS, TIME_UNITS,
 };
 use crate::record::{Format, Record};
 
@@ -94,22 +94,10 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
             continue;
         }
         let cells: Vec<&str> = raw.split('\t').collect();
-        if cells.len() != header.len() {
-            return Err(ReadError::at(
-                path,
-                line,
-                None,
-                ReadErrorKind::RowLength {
-                    expected: header.len(),
-                    found: cells.len(),
-                    header_line,
-                },
-            ));
-        }
-        let cell = |i: usize| cells.get(i).copied().unwrap_or("");
-        let depth = parse_cell(path, line, depth_name, cell(i_depth))?;
-        let load = parse_cell(path, line, load_name, cell(i_load))?;
-        let t = parse_cell(path, line, time_name, cell(i_time))?;
+        check_row_length(path, line, cells.len(), header.len(), header_line)?;
+        let depth = parse_cell(path, line, depth_name, cell(&cells, i_depth))?;
+        let load = parse_cell(path, line, load_name, cell(&cells, i_load))?;
+        let t = parse_cell(path, line, time_name, cell(&cells, i_time))?;
         samples.push(line, t * time_scale, depth * depth_scale, load * load_scale)?;
         labels.push(Some(format!("section {section}")));
         section_open = true;

@@ -11,8 +11,8 @@ use std::path::Path;
 
 use super::error::{ReadError, ReadErrorKind};
 use super::text::{
-    csv_records, decode_utf8_or_latin1, find_unit_column, lines, parse_cell, short, Samples,
-    FORCE_UNITS, LENGTH_UNITS, TIME_UNITS,
+    cell, check_row_length, csv_records, decode_utf8_or_latin1, find_unit_column, lines,
+    parse_cell, short, Samples, FORCE_UNITS, LENGTH_UNITS, TIME_UNITS,
 };
 use crate::record::{Format, Record};
 
@@ -60,22 +60,10 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
 
     let mut samples = Samples::new(path, time_name, comp_name, load_name);
     for (line, cells) in records {
-        if cells.len() != header.len() {
-            return Err(ReadError::at(
-                path,
-                line,
-                None,
-                ReadErrorKind::RowLength {
-                    expected: header.len(),
-                    found: cells.len(),
-                    header_line,
-                },
-            ));
-        }
-        let cell = |i: usize| cells.get(i).map_or("", String::as_str);
-        let t = parse_cell(path, line, time_name, cell(i_time))?;
-        let compression = parse_cell(path, line, comp_name, cell(i_comp))?;
-        let load = parse_cell(path, line, load_name, cell(i_load))?;
+        check_row_length(path, line, cells.len(), header.len(), header_line)?;
+        let t = parse_cell(path, line, time_name, cell(&cells, i_time))?;
+        let compression = parse_cell(path, line, comp_name, cell(&cells, i_comp))?;
+        let load = parse_cell(path, line, load_name, cell(&cells, i_load))?;
         samples.push(
             line,
             t * time_scale,

@@ -13,7 +13,9 @@
 use std::path::Path;
 
 use super::error::{ReadError, ReadErrorKind};
-use super::text::{decode_utf8_or_latin1, find_columns, lines, parse_cell, short, Samples};
+use super::text::{
+    cell, check_row_length, decode_utf8_or_latin1, find_columns, lines, parse_cell, short, Samples,
+};
 use crate::record::{Format, Record, Segment};
 
 const TIME: &str = "seriesTime";
@@ -112,22 +114,16 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
         };
         let n_columns = block.columns.as_ref().map_or(0, |(_, c)| c.len());
         let cells: Vec<&str> = trimmed.split_whitespace().collect();
-        if cells.len() != n_columns {
-            return Err(ReadError::at(
-                path,
-                line,
-                None,
-                ReadErrorKind::RowLength {
-                    expected: n_columns,
-                    found: cells.len(),
-                    header_line: block.columns.as_ref().map_or(block.line, |(l, _)| *l),
-                },
-            ));
-        }
-        let cell = |i: usize| cells.get(i).copied().unwrap_or("");
-        let t = parse_cell(path, line, TIME, cell(it))?;
-        let height = parse_cell(path, line, HEIGHT, cell(ih))?;
-        let force = parse_cell(path, line, FORCE, cell(i_f))?;
+        check_row_length(
+            path,
+            line,
+            cells.len(),
+            n_columns,
+            block.columns.as_ref().map_or(block.line, |(l, _)| *l),
+        )?;
+        let t = parse_cell(path, line, TIME, cell(&cells, it))?;
+        let height = parse_cell(path, line, HEIGHT, cell(&cells, ih))?;
+        let force = parse_cell(path, line, FORCE, cell(&cells, i_f))?;
         // measuredHeight is the height of the cantilever base (piezo, from its sensor);
         // it DEcreases toward the sample (47.4 -> 17.4 µm during the extend). A
         // repulsive force F > 0 bends the cantilever up by F/k, so the tip sits at

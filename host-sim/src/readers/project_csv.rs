@@ -5,10 +5,10 @@
 
 use std::path::Path;
 
-use super::error::{ReadError, ReadErrorKind};
+use super::error::ReadError;
 use super::text::{
-    csv_records, decode_utf8_or_latin1, find_columns, lines, parse_cell, segments_from_labels,
-    Samples,
+    cell, check_row_length, csv_records, decode_utf8_or_latin1, find_columns, lines, parse_cell,
+    segments_from_labels, Samples,
 };
 use crate::record::{Format, Record};
 
@@ -28,24 +28,17 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
     let mut samples = Samples::new(path, "time_s", "position_m", "force_n");
     let mut labels: Vec<Option<String>> = Vec::new();
     for (line, cells) in records {
-        if cells.len() != header.len() {
-            return Err(ReadError::at(
-                path,
-                line,
-                None,
-                ReadErrorKind::RowLength {
-                    expected: header.len(),
-                    found: cells.len(),
-                    header_line,
-                },
-            ));
-        }
-        let cell = |i: usize| cells.get(i).map_or("", String::as_str);
-        let t = parse_cell(path, line, "time_s", cell(it))?;
-        let x = parse_cell(path, line, "position_m", cell(ix))?;
-        let f = parse_cell(path, line, "force_n", cell(i_f))?;
+        check_row_length(path, line, cells.len(), header.len(), header_line)?;
+        let t = parse_cell(path, line, "time_s", cell(&cells, it))?;
+        let x = parse_cell(path, line, "position_m", cell(&cells, ix))?;
+        let f = parse_cell(path, line, "force_n", cell(&cells, i_f))?;
         samples.push(line, t, x, f)?;
-        labels.push(i_seg.map(cell).filter(|s| !s.is_empty()).map(str::to_owned));
+        labels.push(
+            i_seg
+                .map(|i| cell(&cells, i))
+                .filter(|s| !s.is_empty())
+                .map(str::to_owned),
+        );
     }
     let segments = segments_from_labels(&labels);
     let mut notes = vec![

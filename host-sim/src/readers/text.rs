@@ -29,6 +29,35 @@ pub(crate) fn lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
         .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
 }
 
+/// Checks that a data row has as many cells as its header (`expected` columns, header
+/// on `header_line`); a mismatch is a [`ReadErrorKind::RowLength`] at `line`.
+pub(crate) fn check_row_length(
+    path: &Path,
+    line: usize,
+    found: usize,
+    expected: usize,
+    header_line: usize,
+) -> Result<(), ReadError> {
+    if found == expected {
+        return Ok(());
+    }
+    Err(ReadError::at(
+        path,
+        line,
+        None,
+        ReadErrorKind::RowLength {
+            expected,
+            found,
+            header_line,
+        },
+    ))
+}
+
+/// Cell `i` of a row, `""` past its end.
+pub(crate) fn cell<S: AsRef<str>>(cells: &[S], i: usize) -> &str {
+    cells.get(i).map_or("", AsRef::as_ref)
+}
+
 /// Parses one numeric cell; the error names the line, the column and quotes the text.
 pub(crate) fn parse_cell(
     path: &Path,
