@@ -626,6 +626,19 @@ impl ContactDetector {
         }
     }
 
+    /// Commanded tare: `force_n` \[N\] is the offset from now on and the probe, at
+    /// `position_m` \[m\], is in free space (a contact in progress ends). The noise level
+    /// already measured is kept.
+    pub fn tare_at(&mut self, force_n: f32, position_m: f32) {
+        self.offset_n = force_n;
+        self.tare_count = self.tare_count.max(self.config.tare_samples);
+        self.state = ContactState::FreeSpace;
+        self.refining = false;
+        self.below_count = 0;
+        self.last_quiet_position_m = position_m;
+        self.free_space_min_position_m = position_m;
+    }
+
     /// Forgets contact and offset, back to [`ContactState::Taring`].
     pub fn reset(&mut self) {
         if let Ok(d) = ContactDetector::try_new(self.config) {

@@ -134,6 +134,7 @@ pub struct Pipeline<E: Estimator> {
     last_force_n: f32,
     has_sample: bool,
     estimation_enabled: bool,
+    tare_requested: bool,
 }
 
 impl<E: Estimator> Pipeline<E> {
@@ -163,6 +164,7 @@ impl<E: Estimator> Pipeline<E> {
             last_force_n: 0.0,
             has_sample: false,
             estimation_enabled: true,
+            tare_requested: false,
         })
     }
 
@@ -184,6 +186,27 @@ impl<E: Estimator> Pipeline<E> {
     /// The configuration.
     pub fn config(&self) -> &PipelineConfig {
         &self.config
+    }
+
+    /// Operator command "tare now": the probe is declared free, so the force of the next
+    /// sample becomes the offset (its noise level is kept) and contact, if any, ends.
+    /// Clears [`Status::OFFSET_UNCERTAIN`]. Takes effect at the next [`Pipeline::step`].
+    pub fn request_tare(&mut self) {
+        self.tare_requested = true;
+    }
+
+    /// Replaces the estimator (operator command "select model" or new settings) and
+    /// keeps filters, offset and contact state; the new estimator starts from its initial
+    /// parameters.
+    pub fn replace_estimator(&mut self, estimator: E) {
+        self.estimator = estimator;
+        self.detector
+            .set_onset_exponent(self.estimator.onset_exponent());
+        self.last = Estimate {
+            parameters: self.estimator.parameters(),
+            predicted_force_n: 0.0,
+            status: Status::NO_CONTACT,
+        };
     }
 
     /// Pauses (`false`) or resumes (`true`) the estimator while filters, tare and contact
@@ -212,6 +235,9 @@ impl<E: Estimator> Pipeline<E> {
             status |= Status::SAMPLE_DROPPED;
             (self.last_position_m, self.last_force_n)
         };
+        if core::mem::take(&mut self.tare_requested) && finite {
+            self.detector.tare_at(force, position);
+        }
         let (x_f, v_f) = self.position_filter.step(position);
         let (f_f, _) = self.force_filter.step(force);
         if !self.has_sample {

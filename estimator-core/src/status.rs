@@ -64,6 +64,12 @@ bitflags::bitflags! {
         /// The caller paused estimation (e.g. to fit only the loading phase of a test, or
         /// an operator command): the estimator was not updated, the last estimate is held.
         const ESTIMATION_PAUSED = 1 << 17;
+        /// The force offset (tare) has not been confirmed by a free-space stretch of the
+        /// record (the probe moving while the force stays flat, or a lift-off): it is the
+        /// configured prior (a stored calibration zero, or 0). Forces and estimates are
+        /// relative to that prior until a lift-off is seen or a tare is commanded
+        /// ([`crate::Pipeline::request_tare`]).
+        const OFFSET_UNCERTAIN = 1 << 18;
     }
 }
 
