@@ -184,6 +184,15 @@ pub struct EstimatorSettings {
     /// Hammerstein δ̇* \[m/s\]; `None` keeps the default (10 mm/s, for the paper's
     /// 30 mm/s ramp).
     pub min_depth_rate_m_per_s: Option<f32>,
+    /// Hold the damping coefficient at 0 (Kelvin-Voigt and Hunt-Crossley λ) when the
+    /// record cannot determine it; ignored by the other models.
+    pub hold_damping: bool,
+    /// Start from these parameters (SI) instead of the defaults (see
+    /// [`Estimator::start_from`]); ignored when they are of another model.
+    pub initial: Option<AnyParameters>,
+    /// Weighting of the log-domain residual of the single-stage Hunt-Crossley estimator
+    /// (`None` keeps its default, the literature's uniform weighting).
+    pub log_weighting: Option<crate::hunt_crossley::LogWeighting>,
 }
 
 /// Any estimator of this crate (the size of the largest variant).
@@ -236,10 +245,11 @@ impl AnyEstimator {
             }
         };
         let guard = |value: Option<f32>, default: f32| value.unwrap_or(default);
-        Ok(match kind {
+        let mut estimator = match kind {
             ModelKind::KelvinVoigt => {
                 let mut c = KelvinVoigtConfig {
                     scaling,
+                    hold_damping: settings.hold_damping,
                     ..KelvinVoigtConfig::default()
                 };
                 set(&mut c.rls);
@@ -256,6 +266,7 @@ impl AnyEstimator {
             ModelKind::HuntCrossley => {
                 let mut c = HuntCrossleyConfig {
                     scaling,
+                    hold_damping: settings.hold_damping,
                     ..HuntCrossleyConfig::default()
                 };
                 c.guards.min_depth_m = guard(settings.min_depth_m, c.guards.min_depth_m);
@@ -267,8 +278,12 @@ impl AnyEstimator {
             ModelKind::HuntCrossleySingleStage => {
                 let mut c = SingleStageHuntCrossleyConfig {
                     scaling,
+                    hold_damping: settings.hold_damping,
                     ..SingleStageHuntCrossleyConfig::default()
                 };
+                if let Some(w) = settings.log_weighting {
+                    c.weighting = w;
+                }
                 c.guards.min_depth_m = guard(settings.min_depth_m, c.guards.min_depth_m);
                 c.guards.min_force_n = guard(settings.min_force_n, c.guards.min_force_n);
                 set(&mut c.rls);
@@ -291,7 +306,11 @@ impl AnyEstimator {
                     AnyEstimator::Hammerstein2(Hammerstein2::try_new(c)?)
                 }
             }
-        })
+        };
+        if let Some(initial) = &settings.initial {
+            estimator.start_from(initial);
+        }
+        Ok(estimator)
     }
 
     /// The model this estimator fits.
@@ -369,6 +388,31 @@ impl Estimator for AnyEstimator {
             AnyEstimator::HuntCrossleySingleStage(e) => e.onset_damping_ratio(),
             AnyEstimator::Hammerstein1(e) => e.onset_damping_ratio(),
             AnyEstimator::Hammerstein2(e) => e.onset_damping_ratio(),
+        }
+    }
+
+    fn start_from(&mut self, parameters: &AnyParameters) {
+        match (self, parameters) {
+            (AnyEstimator::KelvinVoigt(e), AnyParameters::KelvinVoigt(p)) => e.start_from(p),
+            (AnyEstimator::HuntCrossley(e), AnyParameters::HuntCrossley(p)) => e.start_from(p),
+            (AnyEstimator::HuntCrossleySingleStage(e), AnyParameters::HuntCrossley(p)) => {
+                e.start_from(p)
+            }
+            (AnyEstimator::Hammerstein1(e), AnyParameters::Hammerstein { gamma1, gamma2, .. }) => e
+                .start_from(&crate::hammerstein::HammersteinParameters {
+                    gamma1: *gamma1,
+                    gamma2: *gamma2,
+                    a: [0.0; 1],
+                    b: [0.0; 1],
+                }),
+            (AnyEstimator::Hammerstein2(e), AnyParameters::Hammerstein { gamma1, gamma2, .. }) => e
+                .start_from(&crate::hammerstein::HammersteinParameters {
+                    gamma1: *gamma1,
+                    gamma2: *gamma2,
+                    a: [0.0; 2],
+                    b: [0.0; 2],
+                }),
+            _ => {}
         }
     }
 

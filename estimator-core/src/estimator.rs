@@ -127,7 +127,7 @@ pub trait Estimator {
     /// onset of contact (current Hunt-Crossley n, Hammerstein γ2); `None` for models whose
     /// force jumps at impact (Kelvin-Voigt, Zener: λ·δ̇). The pipeline hands it to the
     /// contact detector to refine each contact point (see
-    /// [`crate::conditioning::ContactDetector::set_onset_exponent`]).
+    /// [`crate::conditioning::refinement`]).
     fn onset_exponent(&self) -> Option<f32> {
         None
     }
@@ -142,6 +142,15 @@ pub trait Estimator {
     /// Called by the pipeline when a new contact begins: estimators with memory of
     /// past samples (ARX forms) restart it from the undeformed state (δ = 0, F = 0).
     fn start_contact(&mut self) {}
+
+    /// Starts from known parameters (SI) instead of the defaults, e.g. a host's
+    /// whole-record fit or a material stored on the board: the estimate begins there and
+    /// [`Estimator::reset`] returns there. Held parameters stay held; non-finite or
+    /// non-positive values (where the model needs a logarithm) are ignored. The default
+    /// does nothing (Zener: its ARX coefficients are kept).
+    fn start_from(&mut self, parameters: &Self::Parameters) {
+        let _ = parameters;
+    }
 
     /// Full reset to the initial parameters and covariance.
     fn reset(&mut self);

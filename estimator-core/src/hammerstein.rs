@@ -359,6 +359,18 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
         self.elastic_lp = 0.0;
     }
 
+    /// Starts the elastic stage Γ1 from γ1, γ2 (the filter stage keeps G_L = 1).
+    fn start_from(&mut self, p: &HammersteinParameters<R>) {
+        if !(p.gamma1 > 0.0 && p.gamma1.is_finite() && p.gamma2 > 0.0 && p.gamma2 <= 10.0) {
+            return;
+        }
+        let s = self.config.scaling;
+        let ln_gamma1 =
+            libm::logf(p.gamma1) + p.gamma2 * libm::logf(s.length_m) - libm::logf(s.force_n);
+        self.elastic.restart_from(Vector2::new(ln_gamma1, p.gamma2));
+        self.held = self.parameters_si().unwrap_or(self.held);
+    }
+
     fn reset(&mut self) {
         self.elastic.reset();
         self.filter.reset();

@@ -90,6 +90,10 @@ pub struct HuntCrossleyConfig {
     /// length unit (ln δ must be centred near 0). The intercept absorbs ln(k/k̂), so Γ2
     /// converges independently of Γ1: the condition under eq. (34) holds by construction.
     pub exponent_intercept: bool,
+    /// Hold λ at 0 instead of estimating it, for records that cannot determine it (a
+    /// constant-speed ramp: δⁿ·δ̇ = v·δⁿ is collinear with δⁿ, and the damping would absorb
+    /// part of the stiffness and, through Γ2, of the exponent). See [`crate::rls::Rls::hold`].
+    pub hold_damping: bool,
 }
 
 /// Forgetting used by both stages by default: β = 0.9995 (2 s memory at 1 kHz) after a
@@ -137,6 +141,7 @@ impl Default for HuntCrossleyConfig {
             initial_exponent: 1.0,
             guards: HuntCrossleyGuards::default(),
             exponent_intercept: true,
+            hold_damping: false,
         }
     }
 }
@@ -181,6 +186,22 @@ impl HuntCrossleyParameters {
     }
 }
 
+/// Internal (k_s, λ_s, n) of an SI parameter set, `None` unless k > 0, λ and n finite
+/// and n in (0, 10].
+fn hunt_crossley_to_internal(s: &Scaling, p: &HuntCrossleyParameters) -> Option<(f32, f32, f32)> {
+    if !(p.is_finite() && p.k > 0.0 && p.n > 0.0 && p.n <= 10.0) {
+        return None;
+    }
+    let l_pow_n = libm::expf(p.n * libm::logf(s.length_m));
+    let k = p.k * l_pow_n / s.force_n;
+    let lambda = p.lambda * l_pow_n * s.length_m / s.force_n;
+    (k.is_finite() && k > 0.0 && lambda.is_finite()).then_some((k, lambda, p.n))
+}
+
+/// Largest |λ̂/k̂·δ̇| the double stage's Γ2 uses (with the intercept): the damping share of
+/// the force it removes before the log-regression.
+const MAX_DAMPING_SHARE: f32 = 0.5;
+
 /// SI value of an internal Hunt-Crossley parameter set (k_s, λ_s, n).
 fn hunt_crossley_to_si(s: &Scaling, k: f32, lambda: f32, n: f32) -> HuntCrossleyParameters {
     let l_pow_n = libm::expf(n * libm::logf(s.length_m));
@@ -195,8 +216,9 @@ fn hunt_crossley_to_si(s: &Scaling, k: f32, lambda: f32, n: f32) -> HuntCrossley
 ///
 /// Γ1 (eq. 25): y1 = F, φ1 = \[δ^n̂, δ^n̂·δ̇\]ᵀ, θ1 = \[k, λ\]ᵀ.
 /// Γ2 (eqs. 26-29, 31): y2 = ln(F/(k̂ + λ̂·δ̇)), φ2 = ln δ, θ2 = n, using the k̂, λ̂ that Γ1
-/// has just produced (optionally with an intercept, see
-/// [`HuntCrossleyConfig::exponent_intercept`]). Each logarithm is guarded (δ, F ≤ minimum; k̂ + λ̂·δ̇ ≤ 0) and n̂ is
+/// has just produced; with an intercept (the default, see
+/// [`HuntCrossleyConfig::exponent_intercept`]) y2 = ln(F/(1 + (λ̂/k̂)·δ̇)) = c + n·ln δ, the
+/// intercept c standing for ln k. Each logarithm is guarded (δ, F ≤ minimum; k̂ + λ̂·δ̇ ≤ 0) and n̂ is
 /// projected into its configured range. δ^n̂ is computed as e^{n̂·ln δ}, reusing ln δ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HuntCrossleyEstimator {
@@ -218,8 +240,12 @@ impl HuntCrossleyEstimator {
     /// [`ConfigError`] if the config is invalid.
     pub fn try_new(config: HuntCrossleyConfig) -> Result<Self, ConfigError> {
         config.validate()?;
+        let mut gamma1 = Rls::try_new(&config.stage1)?;
+        if config.hold_damping {
+            gamma1.hold(1, 0.0);
+        }
         Ok(HuntCrossleyEstimator {
-            gamma1: Rls::try_new(&config.stage1)?,
+            gamma1,
             gamma2: Rls::try_with_initial(
                 &config.stage2,
                 Vector2::new(0.0, config.initial_exponent),
@@ -282,12 +308,23 @@ impl Estimator for HuntCrossleyEstimator {
         // Γ2: n given k̂, λ̂ (eq. 26, 31), with the guards the logarithms need.
         let th1 = self.gamma1.theta();
         let impedance = th1[0] + th1[1] * v;
+        // With the intercept, ln k̂ is redundant with it: only the damping part of the
+        // impedance, ln(1 + (λ̂/k̂)·δ̇), is subtracted. The paper's y2 = ln(F/(k̂ + λ̂·δ̇))
+        // would carry k̂'s own drift into the slope n: on a monotonic ramp k̂ follows F/δ^n̂
+        // as δ grows, and n̂ stays where it started.
+        // The ratio (λ̂/k̂)·δ̇ is bounded to ±MAX_DAMPING_SHARE: early in a contact, k̂ and λ̂
+        // come from a few collinear samples and their ratio can be anything.
+        let damping_term = if self.config.exponent_intercept {
+            libm::log1pf((th1[1] / th1[0] * v).clamp(-MAX_DAMPING_SHARE, MAX_DAMPING_SHARE))
+        } else {
+            libm::logf(impedance)
+        };
         if f <= self.min_force {
             status |= Status::GUARD_FORCE;
-        } else if impedance <= 0.0 {
+        } else if impedance <= 0.0 || th1[0] <= 0.0 {
             status |= Status::GUARD_IMPEDANCE;
         } else {
-            let y2 = libm::logf(f) - libm::logf(impedance);
+            let y2 = libm::logf(f) - damping_term;
             let beta2 = self.config.stage2.forgetting.beta(abs_error_n);
             let phi2 = Vector2::new(self.intercept_regressor, ln_d);
             status |= self.gamma2.update(&phi2, y2, beta2).status;
@@ -335,12 +372,33 @@ impl Estimator for HuntCrossleyEstimator {
         p
     }
 
+    fn start_from(&mut self, p: &HuntCrossleyParameters) {
+        let Some((k, lambda, n)) = hunt_crossley_to_internal(&self.config.scaling, p) else {
+            return;
+        };
+        self.gamma1.restart_from(Vector2::new(k, lambda));
+        let c = if self.config.exponent_intercept {
+            libm::logf(k)
+        } else {
+            0.0
+        };
+        self.gamma2.restart_from(Vector2::new(c, n));
+        let _ = self.refresh();
+    }
+
     fn reset(&mut self) {
         self.gamma1.reset();
         self.gamma2.reset();
-        self.held = hunt_crossley_to_si(&self.config.scaling, 0.0, 0.0, self.exponent());
+        let _ = self.refresh();
     }
 }
+
+/// Largest |λ̂/k̂·δ̇| at which the single stage corrects its linearisation (see
+/// [`SingleStageHuntCrossleyEstimator`]).
+const CORRECTED_RATIO: f32 = 0.8;
+
+/// Updates over which the single stage's linearisation correction follows λ̂/k̂.
+const RATIO_SMOOTHING_UPDATES: f32 = 200.0;
 
 /// Weighting of the log-domain residual in [`SingleStageHuntCrossleyEstimator`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -366,11 +424,14 @@ pub struct SingleStageHuntCrossleyConfig {
     pub rls: RlsConfig,
     /// Logarithm guards and exponent bounds.
     pub guards: HuntCrossleyGuards,
-    /// Samples with |λ̂/k̂·δ̇| above this are skipped: the linearisation
-    /// ln(1 + u) ≈ u is then off by more than u²/2.
+    /// |λ̂/k̂·δ̇| is kept at or below this (the ratio is projected back before the update,
+    /// [`Status::GUARD_IMPEDANCE`]): 0.9 by default, away from u = −1 where ln(1 + u)
+    /// diverges.
     pub max_damping_ratio: f32,
     /// Residual weighting.
     pub weighting: LogWeighting,
+    /// Hold λ at 0 (see [`HuntCrossleyConfig::hold_damping`]).
+    pub hold_damping: bool,
 }
 
 impl Default for SingleStageHuntCrossleyConfig {
@@ -382,8 +443,9 @@ impl Default for SingleStageHuntCrossleyConfig {
                 ..HUNT_CROSSLEY_RLS
             },
             guards: HuntCrossleyGuards::default(),
-            max_damping_ratio: 0.5,
+            max_damping_ratio: 0.9,
             weighting: LogWeighting::Uniform,
+            hold_damping: false,
         }
     }
 }
@@ -413,13 +475,17 @@ impl SingleStageHuntCrossleyConfig {
 ///
 /// ln F = ln k + n·ln δ + ln(1 + (λ/k)·δ̇) ≈ ln k + n·ln δ + (λ/k)·δ̇, so one RLS with
 /// y = ln F, φ = \[1, δ̇, ln δ\]ᵀ, θ = \[ln k, λ/k, n\]ᵀ estimates all three parameters;
-/// k = e^{θ1}, λ = θ2·e^{θ1}, n = θ3. The linearisation holds for |λδ̇/k| ≪ 1. This form
-/// was confirmed from a public implementation, not from the paper's own text (which
-/// was not available to us); see DESIGN notes in the README.
+/// k = e^{θ1}, λ = θ2·e^{θ1}, n = θ3. The literature's linearisation holds for
+/// |λδ̇/k| ≪ 1; here the target also carries its remainder ln(1 + u) − u at the current
+/// estimate u = θ̂2·δ̇ (smoothed, |u| ≤ 0.8), so the regression is exact once θ̂2 has
+/// converged (beyond the literature). This form was confirmed from a public implementation, not from the
+/// paper's own text (which was not available to us); see DESIGN notes in the README.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SingleStageHuntCrossleyEstimator {
     config: SingleStageHuntCrossleyConfig,
     rls: Rls<3>,
+    /// λ̂/k̂ averaged over [`RATIO_SMOOTHING_UPDATES`], for the linearisation correction.
+    smoothed_ratio: f32,
     min_depth: f32,
     min_force: f32,
     /// Last finite SI parameters (held when a conversion overflows).
@@ -434,8 +500,13 @@ impl SingleStageHuntCrossleyEstimator {
     /// [`ConfigError`] if the config is invalid.
     pub fn try_new(config: SingleStageHuntCrossleyConfig) -> Result<Self, ConfigError> {
         config.validate()?;
+        let mut rls = Rls::try_with_initial(&config.rls, Vector3::new(0.0, 0.0, 1.0))?;
+        if config.hold_damping {
+            rls.hold(1, 0.0);
+        }
         Ok(SingleStageHuntCrossleyEstimator {
-            rls: Rls::try_with_initial(&config.rls, Vector3::new(0.0, 0.0, 1.0))?,
+            rls,
+            smoothed_ratio: 0.0,
             min_depth: config.guards.min_depth_m / config.scaling.length_m,
             min_force: config.guards.min_force_n / config.scaling.force_n,
             held: hunt_crossley_to_si(&config.scaling, 1.0, 0.0, 1.0),
@@ -483,13 +554,29 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
         let ln_d = libm::logf(d);
         let (k, lambda, n) = self.internal();
         let predicted = libm::expf(n * ln_d) * (k + lambda * v).max(0.0);
-        let ratio = self.rls.theta()[1] * v;
         if f <= self.min_force {
             status |= Status::GUARD_FORCE;
-        } else if ratio.abs() > self.config.max_damping_ratio {
-            status |= Status::GUARD_IMPEDANCE;
         } else {
-            let y = libm::logf(f);
+            // The linearisation ln(1 + u) ≈ u, u = (λ/k)·δ̇, holds for |u| ≤
+            // max_damping_ratio. An estimate beyond it for this δ̇ is projected back to the
+            // bound (not skipped: on a constant-speed ramp every later sample would then be
+            // skipped too, and the estimator would stay locked on a wrong ratio).
+            let bound = self.config.max_damping_ratio / v.abs().max(f32::MIN_POSITIVE);
+            let mut th = *self.rls.theta();
+            if th[1].abs() > bound {
+                th[1] = th[1].clamp(-bound, bound);
+                self.rls.set_theta(th);
+                status |= Status::GUARD_IMPEDANCE | Status::NONPHYSICAL;
+            }
+            // ln F = ln k + n·ln δ + ln(1 + r·δ̇), r = λ/k, regressed on r·δ̇: the target
+            // carries the linearisation's remainder ln(1 + u) − u at u = r̄·δ̇, so that the
+            // regression is exact once r̂ has converged (without it λ is biased by ≈ u/2:
+            // 20-40 % at damping shares of 20-30 %). r̄ follows r̂ slowly (over
+            // RATIO_SMOOTHING_UPDATES): fed back at once, a poorly excited r̂ that jumps at
+            // the turn of a constant-speed stroke made the update diverge.
+            self.smoothed_ratio += (th[1] - self.smoothed_ratio) / RATIO_SMOOTHING_UPDATES;
+            let u = (self.smoothed_ratio * v).clamp(-CORRECTED_RATIO, CORRECTED_RATIO);
+            let y = libm::logf(f) - (libm::log1pf(u) - u);
             let weight = match self.config.weighting {
                 LogWeighting::Uniform => 1.0,
                 LogWeighting::Force => f,
@@ -554,8 +641,19 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
         p
     }
 
+    fn start_from(&mut self, p: &HuntCrossleyParameters) {
+        let Some((k, lambda, n)) = hunt_crossley_to_internal(&self.config.scaling, p) else {
+            return;
+        };
+        self.rls
+            .restart_from(Vector3::new(libm::logf(k), lambda / k, n));
+        self.smoothed_ratio = self.rls.theta()[1];
+        let _ = self.refresh();
+    }
+
     fn reset(&mut self) {
         self.rls.reset();
-        self.held = hunt_crossley_to_si(&self.config.scaling, 1.0, 0.0, 1.0);
+        self.smoothed_ratio = self.rls.theta()[1];
+        let _ = self.refresh();
     }
 }

@@ -28,6 +28,9 @@ pub struct KelvinVoigtConfig {
     pub scaling: Scaling,
     /// RLS settings (P(0) in internal units: (N/mm)² for the default scaling).
     pub rls: RlsConfig,
+    /// Hold λ at 0 instead of estimating it (a record without velocity excitation); see
+    /// [`crate::rls::Rls::hold`].
+    pub hold_damping: bool,
 }
 
 impl KelvinVoigtConfig {
@@ -57,9 +60,13 @@ impl KelvinVoigtEstimator {
     /// [`ConfigError`] if the config is invalid.
     pub fn try_new(config: KelvinVoigtConfig) -> Result<Self, ConfigError> {
         config.validate()?;
+        let mut rls = Rls::try_new(&config.rls)?;
+        if config.hold_damping {
+            rls.hold(1, 0.0);
+        }
         Ok(KelvinVoigtEstimator {
             config,
-            rls: Rls::try_new(&config.rls)?,
+            rls,
             held: KelvinVoigtParameters::default(),
         })
     }
@@ -119,8 +126,16 @@ impl Estimator for KelvinVoigtEstimator {
         self.parameters_si(&self.rls.standard_errors())
     }
 
+    fn start_from(&mut self, p: &KelvinVoigtParameters) {
+        let s = self.config.scaling;
+        let scale = s.length_m / s.force_n;
+        self.rls
+            .restart_from(Vector2::new(p.kappa * scale, p.lambda * scale));
+        self.held = self.parameters_si(self.rls.theta());
+    }
+
     fn reset(&mut self) {
         self.rls.reset();
-        self.held = KelvinVoigtParameters::default();
+        self.held = self.parameters_si(self.rls.theta());
     }
 }

@@ -33,6 +33,7 @@ pub mod estimator;
 pub mod hammerstein;
 pub mod hunt_crossley;
 pub mod kelvin_voigt;
+pub mod laws;
 pub mod models;
 pub mod monitor;
 pub mod pipeline;

@@ -11,6 +11,7 @@
 //! what the plant (host-sim) and the discrepancy workflow call at every sample.
 
 use crate::error::{check, non_negative, positive, ConfigError};
+use crate::laws;
 
 /// A contact model advanced one sample at a time.
 pub trait ContactModel {
@@ -47,10 +48,12 @@ impl KelvinVoigt {
     /// Eq. (1) with the unilateral clamp, in N.
     #[inline]
     pub fn force_n(&self, depth_m: f32, depth_rate_m_per_s: f32) -> f32 {
-        if depth_m <= 0.0 {
-            return 0.0;
-        }
-        (self.kappa * depth_m + self.lambda * depth_rate_m_per_s).max(0.0)
+        laws::unilateral(laws::kelvin_voigt(
+            depth_m,
+            depth_rate_m_per_s,
+            self.kappa,
+            self.lambda,
+        ))
     }
 }
 
@@ -107,17 +110,14 @@ impl HuntCrossley {
     /// Eq. (3) with the unilateral clamp, in N.
     #[inline]
     pub fn force_n(&self, depth_m: f32, depth_rate_m_per_s: f32) -> f32 {
-        if depth_m <= 0.0 {
-            return 0.0;
-        }
-        let ln_d = libm::logf(depth_m);
-        let elastic = self.k * libm::expf(self.n * ln_d);
-        let damping = if self.q == self.n {
-            elastic / self.k.max(f32::MIN_POSITIVE) * self.lambda
-        } else {
-            self.lambda * libm::expf(self.q * ln_d)
-        };
-        (elastic + damping * depth_rate_m_per_s).max(0.0)
+        laws::unilateral(laws::hunt_crossley(
+            depth_m,
+            depth_rate_m_per_s,
+            self.k,
+            self.lambda,
+            self.n,
+            self.q,
+        ))
     }
 }
 
@@ -128,24 +128,9 @@ impl ContactModel for HuntCrossley {
     fn reset(&mut self) {}
 }
 
-/// Exact first-order-hold discretisation of ẋ = −a·x + b·u over one sample T with u
-/// linear from u0 to u1, written in deviation form so that the fixed point x = (b/a)·u is
-/// exact in f32 (no 1 − e^{−aT} cancellation):
-///
-/// x1 = x0 + (1 − e^{−aT})·((b/a)·u0 − x0) + b·(G1/T)·(u1 − u0),
-/// G1/T = 1/a − (1 − e^{−aT})/(a²T).
-///
-/// Returns (e^{−aT}, 1 − e^{−aT}, G1/T).
+/// See [`laws::first_order_hold`].
 fn foh_coefficients(a: f32, t: f32) -> (f32, f32, f32) {
-    let at = a * t;
-    let one_minus_e = -libm::expm1f(-at);
-    let g1_over_t = if at < 1.0e-3 {
-        // Series: G1/T = T·(1/2 − aT/6 + (aT)²/24).
-        t * (0.5 - at / 6.0 + at * at / 24.0)
-    } else {
-        (1.0 - one_minus_e / at) / a
-    };
-    (1.0 - one_minus_e, one_minus_e, g1_over_t)
+    laws::first_order_hold(a, t)
 }
 
 /// Zener / standard linear solid, eq. (2): F + λ/(κ1+κ2)·Ḟ = κ1/(κ1+κ2)·(κ2·δ + λ·δ̇).
@@ -293,9 +278,9 @@ impl ElasticResponse {
             return 0.0;
         }
         match *self {
-            ElasticResponse::Exponential { m, b } => m / b * libm::expm1f(b * depth_m),
+            ElasticResponse::Exponential { m, b } => m * laws::exponential_law(depth_m, b),
             ElasticResponse::PowerLaw { gamma1, gamma2 } => {
-                gamma1 * libm::expf(gamma2 * libm::logf(depth_m))
+                gamma1 * laws::power_law(depth_m, gamma2)
             }
         }
     }

@@ -201,6 +201,8 @@ pub struct Rls<const N: usize> {
     startup_gap: f32,
     startup_gap0: f32,
     startup_decay: f32,
+    /// Parameters held at their value (see [`Rls::hold`]).
+    held: [bool; N],
 }
 
 /// Mixing rate of the residual-variance average (≈ 1000-sample memory).
@@ -238,7 +240,58 @@ impl<const N: usize> Rls<N> {
             startup_gap: 1.0 - config.startup_forgetting,
             startup_gap0: 1.0 - config.startup_forgetting,
             startup_decay: 1.0 - 1.0 / config.startup_samples.max(1.0),
+            held: [false; N],
         })
+    }
+
+    /// Holds parameter `i` at `value` (internal units): its regressor no longer updates
+    /// anything, its covariance row and column stay 0 (its diagonal at c, so P stays
+    /// positive definite and its trace bounded), and predictions use `value`. For a
+    /// parameter the data cannot determine (e.g. damping on a constant-speed ramp, where
+    /// δⁿ·δ̇ = v·δⁿ is collinear with δⁿ), which would otherwise absorb part of the others.
+    /// Out-of-range `i` and non-finite `value` are ignored; the hold survives
+    /// [`Rls::reset`].
+    pub fn hold(&mut self, i: usize, value: f32) {
+        if i >= N || !value.is_finite() {
+            return;
+        }
+        self.held[i] = true;
+        self.theta[i] = value;
+        self.theta0[i] = value;
+        self.decouple_held();
+    }
+
+    /// Starts from `theta` (internal units) instead of θ̂(0): θ̂ and the value
+    /// [`Rls::reset`] returns to become `theta`, except held entries; P is reset to c·I.
+    /// Non-finite values are ignored.
+    pub fn restart_from(&mut self, theta: SVector<f32, N>) {
+        if theta.iter().any(|v| !v.is_finite()) {
+            return;
+        }
+        for i in 0..N {
+            if !self.held[i] {
+                self.theta[i] = theta[i];
+                self.theta0[i] = theta[i];
+            }
+        }
+        self.reset_covariance();
+    }
+
+    /// `true` if parameter `i` is held ([`Rls::hold`]).
+    pub fn is_held(&self, i: usize) -> bool {
+        self.held.get(i).copied().unwrap_or(false)
+    }
+
+    fn decouple_held(&mut self) {
+        for i in 0..N {
+            if self.held[i] {
+                for j in 0..N {
+                    self.p[(i, j)] = 0.0;
+                    self.p[(j, i)] = 0.0;
+                }
+                self.p[(i, i)] = self.initial_covariance;
+            }
+        }
     }
 
     /// Current estimate θ̂ (internal units).
@@ -274,12 +327,19 @@ impl<const N: usize> Rls<N> {
     /// as an honest upper bound, not an exact interval.
     pub fn standard_errors(&self) -> SVector<f32, N> {
         let s2 = self.residual_variance;
-        SVector::from_fn(|i, _| libm::sqrtf((s2 * self.p[(i, i)]).max(0.0)))
+        SVector::from_fn(|i, _| {
+            if self.held[i] {
+                0.0
+            } else {
+                libm::sqrtf((s2 * self.p[(i, i)]).max(0.0))
+            }
+        })
     }
 
     /// Resets P to c·I, keeping θ̂ (used after an abrupt change or a numerical fault).
     pub fn reset_covariance(&mut self) {
         self.p = SMatrix::identity() * self.initial_covariance;
+        self.decouple_held();
     }
 
     /// Resets θ̂ to θ̂(0), P to c·I and restarts the start-up forgetting.
@@ -318,9 +378,11 @@ impl<const N: usize> Rls<N> {
             .clamp(f32::MIN_POSITIVE, 1.0);
         self.startup_gap *= self.startup_decay;
         let mut status = Status::empty();
-        let pphi = self.p * phi;
-        let denom = beta / weight + phi.dot(&pphi);
         let prior_error = y - phi.dot(&self.theta);
+        // Held parameters take no part in the update (their P rows are 0).
+        let free_phi = SVector::from_fn(|i, _| if self.held[i] { 0.0 } else { phi[i] });
+        let pphi = self.p * free_phi;
+        let denom = beta / weight + free_phi.dot(&pphi);
         if !(denom.is_finite() && denom > 0.0) {
             self.reset_covariance();
             return RlsUpdate {
@@ -349,6 +411,11 @@ impl<const N: usize> Rls<N> {
             status |= Status::COVARIANCE_BOUNDED;
         }
         p /= beta_eff;
+        for i in 0..N {
+            if self.held[i] {
+                p[(i, i)] = self.initial_covariance;
+            }
+        }
 
         if !is_positive_definite(&p) {
             self.reset_covariance();
@@ -414,6 +481,32 @@ mod tests {
             forgetting: Forgetting::Fixed { beta },
             ..RlsConfig::default()
         }
+    }
+
+    #[test]
+    fn a_held_parameter_stays_put_and_the_rest_converges() {
+        // y = 3·u + 0·(2u): the second regressor is collinear with the first (a constant
+        // speed times the first), so unheld RLS splits the gain arbitrarily between them.
+        let mut free = Rls::<2>::try_new(&cfg(0.999)).unwrap();
+        let mut held = Rls::<2>::try_new(&cfg(0.999)).unwrap();
+        held.hold(1, 0.0);
+        for h in 0..5000 {
+            let u = 0.5 + 0.4 * libm::sinf(h as f32 * 0.01);
+            let phi = Vector2::new(u, 2.0 * u);
+            free.update(&phi, 3.0 * u, 0.999);
+            held.update(&phi, 3.0 * u, 0.999);
+        }
+        assert_eq!(held.theta()[1], 0.0);
+        assert!((held.theta()[0] - 3.0).abs() < 1e-4, "{:?}", held.theta());
+        assert!(held.is_held(1) && !held.is_held(0));
+        assert_eq!(held.covariance()[(0, 1)], 0.0);
+        assert_eq!(held.standard_errors()[1], 0.0);
+        // Unheld: the sum is right, the split is not.
+        assert!((free.theta()[0] + 2.0 * free.theta()[1] - 3.0).abs() < 1e-3);
+        assert!(free.theta()[1].abs() > 0.1, "{:?}", free.theta());
+        // The hold survives a reset.
+        held.reset();
+        assert!(held.is_held(1) && held.theta()[1] == 0.0);
     }
 
     #[test]

@@ -26,7 +26,10 @@ bitflags::bitflags! {
         /// Force F was at or below the configured minimum before a logarithm: that stage
         /// was skipped.
         const GUARD_FORCE = 1 << 3;
-        /// k̂ + λ̂·δ̇ ≤ 0 (Hunt-Crossley Γ2, eq. 31): the logarithm is undefined, Γ2 skipped.
+        /// The damping term is out of the range the regression needs: k̂ + λ̂·δ̇ ≤ 0 in the
+        /// double stage (Γ2, eq. 31: the logarithm is undefined, Γ2 skipped), or
+        /// |λ̂/k̂·δ̇| beyond the single stage's linearisation bound (the ratio is projected
+        /// back to the bound before the update).
         const GUARD_IMPEDANCE = 1 << 4;
         /// The covariance trace hit its bound: forgetting was reduced for this sample so
         /// that P cannot wind up while excitation is missing (anti-windup).
@@ -70,6 +73,11 @@ bitflags::bitflags! {
         /// relative to that prior until a lift-off is seen or a tare is commanded
         /// ([`crate::Pipeline::request_tare`]).
         const OFFSET_UNCERTAIN = 1 << 18;
+        /// A free-space stretch moved the force offset by more than the onset threshold
+        /// (the provisional offset was a contact force, or the load cell's zero shifted):
+        /// the estimator was restarted, since everything it learned was measured from the
+        /// wrong zero, and the contact state is re-evaluated with the new offset.
+        const OFFSET_CORRECTED = 1 << 19;
     }
 }
 

@@ -170,9 +170,10 @@ fn paper_literal_double_stage_depends_on_the_length_unit() {
 }
 
 /// Single-stage (log-linear, Haddadi & Hashtrudi-Zaad) next to the double stage on the
-/// same records. Plastic: within 2 %, and within 5 % from ≤ 2.5 s. Gel: λ biased high by
-/// 4-10 % and k by up to 3 %: ln(1 + λδ̇/k) ≈ λδ̇/k drops −u²/2 and u reaches 0.4 on the
-/// gel. The double stage has no such bias.
+/// same records. Plastic: within 2 %, and within 5 % from ≤ 2.5 s. Gel: the literature's
+/// ln(1 + λδ̇/k) ≈ λδ̇/k drops −u²/2 with u up to 0.4, which biased λ high by 4-10 %; the
+/// estimator now carries that remainder in its target (measured: λ within 0.2 %, k 0.1 %,
+/// n 0.02 %).
 #[test]
 fn single_stage_hunt_crossley_side_by_side() {
     for seed in SEEDS {
@@ -196,12 +197,9 @@ fn single_stage_hunt_crossley_side_by_side() {
         let track = hc_track(&mut single, &data, &truth);
         track.report(&format!("HC single gel seed {seed}"));
         let errors = track.final_errors();
-        assert!(errors[0] < 0.03 && errors[2] < 0.01, "{errors:?}");
-        let p = single.parameters();
         assert!(
-            p.lambda > truth.lambda * 1.04 && p.lambda < truth.lambda * 1.10,
-            "λ bias {}",
-            errors[1]
+            errors[0] < 0.02 && errors[1] < 0.02 && errors[2] < 0.01,
+            "{errors:?}"
         );
     }
 }

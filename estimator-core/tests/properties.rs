@@ -167,5 +167,5 @@ fn regression_pipeline_huge_force_does_not_poison_the_tare() {
         });
         assert!(out.force_offset_n.is_finite() && out.sample.is_finite());
     }
-    assert!((pipeline.detector().force_offset_n() - 0.5).abs() < 1e-6);
+    assert!((pipeline.force_offset_n() - 0.5).abs() < 1e-6);
 }
