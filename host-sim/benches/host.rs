@@ -11,7 +11,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use estimator_core::conditioning::ContactDetectorConfig;
+use estimator_core::conditioning::ImpactConfig;
 use estimator_core::ModelKind;
 use host_sim::diagnose::data::prepare;
 use host_sim::diagnose::{diagnose, Options};
@@ -63,7 +63,7 @@ fn host(c: &mut Criterion) {
                 &time_s,
                 black_box(&log.position_m),
                 black_box(&log.force_n),
-                ContactDetectorConfig::default(),
+                ImpactConfig::default(),
             )
             .expect("the record has contact");
             diagnose(&prepared, &Options::default()).expect("baseline fits")

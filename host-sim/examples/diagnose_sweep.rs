@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use estimator_core::conditioning::ContactDetectorConfig;
+use estimator_core::conditioning::ImpactConfig;
 use host_sim::diagnose::{self, data, model::Effect, Options};
 use host_sim::generator;
 
@@ -45,7 +45,7 @@ fn main() {
                 &g.log.time_s,
                 &g.log.position_m,
                 &g.log.force_n,
-                ContactDetectorConfig::default(),
+                ImpactConfig::default(),
             ) {
                 Ok(p) => p,
                 Err(e) => {

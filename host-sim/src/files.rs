@@ -7,6 +7,12 @@ use anyhow::{bail, Context, Result};
 use estimator_core::ModelKind;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use std::collections::BTreeMap;
+
+use estimator_core::AnyParameters;
+
+use crate::frontend::fit::LawFit;
+use crate::frontend::{self, identifiability, FrontEnd};
 use crate::phases::Phase;
 use crate::readers;
 use crate::record::{Format, Record};
@@ -49,11 +55,23 @@ fn native_rate_hz(native: &Record) -> f64 {
 
 /// Estimation on one file: the record, options used and the result.
 pub struct FileRun {
-    /// The record at 1 kHz.
+    /// The record at 1 kHz, as read (raw axis and offset).
     pub record: Record,
     /// How it was read and configured, in words.
     pub notes: Vec<String>,
-    /// The run.
+    /// What the record could not determine, in words (also printed as warnings).
+    pub warnings: Vec<String>,
+    /// The front end's axis, offset and contact point.
+    pub front_end: FrontEnd,
+    /// Per parameter: whether the record determined it.
+    pub identifiable: BTreeMap<String, bool>,
+    /// The online estimate fits the record about as well as the whole-record fit.
+    pub converged: bool,
+    /// Parameters held at a physical default instead of estimated: name → value.
+    pub held: BTreeMap<String, f64>,
+    /// The identifiability analysis behind `identifiable`.
+    pub verdicts: Vec<identifiability::Verdict>,
+    /// The run (on the conditioned record: δ from the contact point, offset removed).
     pub result: RunResult,
     /// Phases the estimator was updated in, if restricted.
     pub estimated_during: Option<Vec<String>>,
@@ -66,13 +84,85 @@ impl FileRun {
         let mut value = serde_json::to_value(&summary)?;
         value["file"] = serde_json::Value::String(path.display().to_string());
         value["notes"] = serde_json::to_value(&self.notes)?;
-        // The pipeline's own findings, next to the model parameters as well.
-        value["parameters"]["contact_position_m"] = summary.contact_position_m.into();
-        value["parameters"]["force_offset_n"] = summary.force_offset_n.into();
+        value["warnings"] = serde_json::to_value(&self.warnings)?;
+        value["identifiable"] = serde_json::to_value(&self.identifiable)?;
+        value["converged"] = self.converged.into();
+        value["held"] = serde_json::to_value(&self.held)?;
+        value["identifiability"] = serde_json::to_value(&self.verdicts)?;
+        value["front_end"] = serde_json::to_value(&self.front_end)?;
+        // On the file's own axis and zero: where the contact is and what offset was removed.
+        value["contact_position_m"] = self.front_end.contact_position_m.into();
+        value["force_offset_n"] = self.front_end.force_offset_n.into();
+        value["parameters"]["contact_position_m"] = self.front_end.contact_position_m.into();
+        value["parameters"]["force_offset_n"] = self.front_end.force_offset_n.into();
         Ok(value)
     }
 }
 
+/// NRMSE \[%\] of the front end's whole-record fit over its in-contact points
+/// (range-normalised, as the run's).
+fn front_end_nrmse_percent(front: &FrontEnd) -> f64 {
+    let (depth, rate) = front.series_depth_and_rate();
+    let predicted = front.law.predict(&depth, &rate, &front.series.time_s);
+    let (measured, model): (Vec<f64>, Vec<f64>) = (0..depth.len())
+        .filter(|&i| depth[i] > 0.0)
+        .map(|i| {
+            (
+                front.series.force_n[i] - front.force_offset_n,
+                estimator_core::laws::unilateral(predicted[i]),
+            )
+        })
+        .unzip();
+    crate::simulate::nrmse_percent(&measured, &model).unwrap_or(f64::INFINITY)
+}
+
+/// The front end's law as the starting parameters of `model` (SI), with held parameters at
+/// their held values.
+fn initial_parameters(
+    law: &LawFit,
+    model: ModelKind,
+    held: &BTreeMap<String, f64>,
+) -> AnyParameters {
+    let damping = held.get("lambda").copied().unwrap_or(law.damping()) as f32;
+    match model {
+        ModelKind::KelvinVoigt | ModelKind::Zener => {
+            AnyParameters::KelvinVoigt(estimator_core::kelvin_voigt::KelvinVoigtParameters {
+                kappa: law.stiffness as f32,
+                lambda: damping,
+            })
+        }
+        ModelKind::HuntCrossley | ModelKind::HuntCrossleySingleStage => {
+            AnyParameters::HuntCrossley(estimator_core::hunt_crossley::HuntCrossleyParameters {
+                k: law.stiffness as f32,
+                lambda: damping,
+                n: law.exponent as f32,
+            })
+        }
+        ModelKind::Hammerstein1 | ModelKind::Hammerstein2 => AnyParameters::Hammerstein {
+            gamma1: law.instantaneous_stiffness() as f32,
+            gamma2: law.exponent as f32,
+            order: if model == ModelKind::Hammerstein1 {
+                1
+            } else {
+                2
+            },
+            a: [0.0; 2],
+            b: [0.0; 2],
+        },
+    }
+}
+
+/// Exponent bounds of the Hunt-Crossley estimators (an estimate within 1 % of one is
+/// "at its bound", not estimated).
+const EXPONENT_BOUNDS: (f64, f64) = (0.5, 3.0);
+
+/// Runs `model` on one file: read, set up from the whole record (axis, offset, contact
+/// point, which parameters the record determines), resample to 1 kHz, run the core's
+/// pipeline with the known surface and offset, and judge the result.
+///
+/// # Errors
+/// The reader's error (file, line, field); a record the front end cannot set up (constant
+/// force or position, no contact); a run in which the estimator never updated.
 pub fn estimate_file(
     model: ModelKind,
     path: &Path,
@@ -82,15 +172,107 @@ pub fn estimate_file(
 ) -> Result<FileRun> {
     let (native, record) = load(path, format)?;
     let native_rate = native_rate_hz(&native);
+    let front = frontend::analyse(
+        &native.time_s,
+        &native.position_m,
+        &native.force_n,
+        identifiability::family_for(model),
+        &overrides.front_end,
+    )
+    .with_context(|| format!("{}", path.display()))?;
+    let depth: Vec<f64> = record
+        .position_m
+        .iter()
+        .map(|x| front.depth_m(*x))
+        .collect();
+    let force: Vec<f64> = record
+        .force_n
+        .iter()
+        .map(|f| f - front.force_offset_n)
+        .collect();
     let (mut options, mut notes) = setup::options_for_record(
         model,
-        &record.position_m,
-        &record.force_n,
+        &depth,
+        &force,
         &native.force_n,
         native_rate,
         overrides,
     );
+    options.pipeline = options.pipeline.with_known_surface_and_offset();
     notes.splice(0..0, native.notes.iter().cloned());
+    notes.splice(
+        native.notes.len()..native.notes.len(),
+        front.notes.iter().cloned(),
+    );
+    let mut warnings = front.warnings.clone();
+
+    // Which parameters the record determines, from the front end's joint fit.
+    let mut verdicts = identifiability::for_model(&front, model);
+    if matches!(
+        model,
+        ModelKind::Zener | ModelKind::Hammerstein1 | ModelKind::Hammerstein2
+    ) {
+        let names: &[&'static str] = match model {
+            ModelKind::Zener => &["lambda"],
+            ModelKind::Hammerstein1 => &["a1", "b1"],
+            _ => &["a1", "a2", "b1", "b2"],
+        };
+        verdicts.extend(identifiability::relaxation_verdict(&front, names, 0.5));
+    }
+    let mut held = BTreeMap::new();
+    if front.loading_only {
+        if let Some(v) = verdicts.iter_mut().find(|v| v.name == "lambda") {
+            v.identifiable = false;
+            v.reason = "the law is estimated on the loading curve alone, where damping cannot be told from stiffness".into();
+        }
+    }
+    let damping = verdicts.iter().find(|v| v.name == "lambda");
+    if let Some(v) = damping.filter(|v| !v.identifiable) {
+        if matches!(
+            model,
+            ModelKind::KelvinVoigt | ModelKind::HuntCrossley | ModelKind::HuntCrossleySingleStage
+        ) {
+            options.settings.hold_damping = true;
+            held.insert("lambda".to_string(), 0.0);
+            warnings.push(format!(
+                "lambda is not identifiable: {}; held at 0 (a second speed, an unloading or a \
+                 faster tap would determine it)",
+                v.reason
+            ));
+            // The others without the damping's column: a stiffness collinear only with
+            // the held damping is determined.
+            let lambda = v.clone();
+            let mut others = identifiability::without_held(&front, model, &["lambda"]);
+            others.push(lambda);
+            verdicts = others;
+        }
+    }
+    if let frontend::OffsetSource::NotIdentifiable { .. } = front.offset {
+        // Everything measured from a held offset carries its error (after the hold
+        // decision: the damping is held for lack of excitation, not for the offset).
+        for v in &mut verdicts {
+            if v.identifiable {
+                v.identifiable = false;
+                v.reason = format!(
+                    "it depends on the force offset, which the record does not determine (held at {:.4e} N; \
+                     --force-offset-n sets it)",
+                    front.force_offset_n
+                );
+            }
+        }
+    }
+    if overrides.cold_start {
+        notes.push(
+            "estimator started from its defaults (--cold-start), as the firmware does".into(),
+        );
+    } else {
+        options.settings.initial = Some(initial_parameters(&front.law, model, &held));
+        notes.push(
+            "estimator started from the whole-record fit (--cold-start starts it from its defaults, as the firmware does)"
+                .into(),
+        );
+    }
+    let phases = phases.or_else(|| front.loading_only.then(|| vec![Phase::Loading]));
     if let Some(p) = &phases {
         let names: Vec<&str> = p.iter().map(|p| p.name()).collect();
         notes.push(format!(
@@ -100,25 +282,76 @@ pub fn estimate_file(
     }
     options.estimate_during = phases;
     let bar = progress(record.len() as u64);
-    let result = runner::run(
-        &options,
-        &record.position_m,
-        &record.force_n,
-        &[],
-        &mut |i| bar.set_position(i as u64),
-    )
+    let result = runner::run(&options, &depth, &force, &[], &mut |i| {
+        bar.set_position(i as u64)
+    })
     .with_context(|| format!("{}", path.display()))?;
     bar.finish_and_clear();
+    if result.updates == 0 {
+        bail!(
+            "{}: the estimator was never updated ({} samples in contact, all skipped: {}); no \
+             parameter is estimated",
+            path.display(),
+            result.contact_samples,
+            result
+                .status_counts
+                .keys()
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     notes.push(format!(
-        "phases: loading above {:.3e} m/s (10 % of the 99th-percentile speed)",
+        "phases: loading above {:.3e} m/s (5 % of the 99.9th-percentile speed)",
         result.phase_speed_threshold_m_per_s
     ));
+    let whole_record = front_end_nrmse_percent(&front);
+    let converged = result
+        .nrmse_percent
+        .is_some_and(|online| online <= (2.0 * whole_record).max(whole_record + 2.0));
+    if !converged {
+        warnings.push(format!(
+            "the online estimate fits the record much worse than the whole-record fit (NRMSE {} vs {whole_record:.2} %): \
+             it has not converged within the record, or the model misses an effect (try `diagnose`)",
+            result
+                .nrmse_percent
+                .map_or("-".into(), |v| format!("{v:.2} %"))
+        ));
+    }
+    let mut identifiable: BTreeMap<String, bool> = runner::named(&result.parameters)
+        .into_iter()
+        .map(|(name, _)| (name.to_string(), true))
+        .collect();
+    for v in &verdicts {
+        if let Some(flag) = identifiable.get_mut(v.name) {
+            *flag = v.identifiable;
+            if !v.identifiable && !held.contains_key(v.name) {
+                warnings.push(format!("{} is not identifiable: {}", v.name, v.reason));
+            }
+        }
+    }
+    if let AnyParameters::HuntCrossley(p) = result.parameters {
+        let n = f64::from(p.n);
+        let (lo, hi) = EXPONENT_BOUNDS;
+        if n <= lo * 1.01 || n >= hi * 0.99 {
+            identifiable.insert("n".into(), false);
+            warnings.push(format!(
+                "n = {n:.3} ended at its bound [{lo}, {hi}]: not an estimate"
+            ));
+        }
+    }
     let estimated_during = options
         .estimate_during
         .map(|p| p.iter().map(|p| p.name().to_string()).collect());
     Ok(FileRun {
         record,
         notes,
+        warnings,
+        front_end: front,
+        identifiable,
+        converged,
+        held,
+        verdicts,
         result,
         estimated_during,
     })
@@ -190,22 +423,57 @@ pub fn diagnose_file(
     until_end_of: Option<Phase>,
 ) -> Result<FileDiagnosis> {
     let (native, record) = load(path, format)?;
-    let native_rate = native_rate_hz(&native);
-    let (run_options, mut notes) = setup::options_for_record(
-        ModelKind::KelvinVoigt,
-        &record.position_m,
-        &record.force_n,
-        &native.force_n,
-        native_rate,
-        overrides,
-    );
-    notes.splice(0..0, native.notes.iter().cloned());
-    notes.retain(|n| !n.starts_with("internal units") && !n.starts_with("state-variable"));
-    let prepared = crate::diagnose::data::prepare(
+    // Axis, offset and contact point from the whole record: the better of the two
+    // memoryless onsets (a jump at impact, Kelvin-Voigt; a power-law rise, Hunt-Crossley).
+    let fronts: Vec<FrontEnd> = [
+        frontend::fit::LawFamily::KelvinVoigt,
+        frontend::fit::LawFamily::HuntCrossley,
+    ]
+    .into_iter()
+    .filter_map(|family| {
+        frontend::analyse(
+            &native.time_s,
+            &native.position_m,
+            &native.force_n,
+            family,
+            &overrides.front_end,
+        )
+        .ok()
+    })
+    .collect();
+    let front = match fronts
+        .into_iter()
+        .min_by(|a, b| a.law.rms_n().total_cmp(&b.law.rms_n()))
+    {
+        Some(front) => front,
+        None => {
+            // The same error a single family gives (constant force, no contact, …).
+            frontend::analyse(
+                &native.time_s,
+                &native.position_m,
+                &native.force_n,
+                frontend::fit::LawFamily::HuntCrossley,
+                &overrides.front_end,
+            )
+            .with_context(|| format!("{}", path.display()))?;
+            bail!("{}: the contact law could not be fitted", path.display());
+        }
+    };
+    let mut notes = native.notes.clone();
+    notes.extend(front.notes.iter().cloned());
+    notes.extend(front.warnings.iter().map(|w| format!("warning: {w}")));
+    let oriented: Vec<f64> = record
+        .position_m
+        .iter()
+        .map(|x| front.position_sign * x)
+        .collect();
+    let prepared = crate::diagnose::data::prepare_known(
         &record.time_s,
-        &record.position_m,
+        &oriented,
         &record.force_n,
-        run_options.pipeline.contact,
+        front.force_offset_n,
+        front.position_sign * front.contact_position_m,
+        front.noise_n * (front.series.block as f64).sqrt(),
     )
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;

@@ -5,12 +5,14 @@
 
 pub mod diagnose;
 pub mod files;
+pub mod frontend;
 pub mod generator;
 pub mod phases;
 pub mod plant;
 pub mod plots;
 pub mod readers;
 pub mod record;
+pub mod recordings;
 pub mod report;
 pub mod runner;
 pub mod scenarios;

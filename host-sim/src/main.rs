@@ -71,6 +71,23 @@ enum Command {
         /// motion). Default: whenever in contact.
         #[arg(long, value_enum)]
         phase: Vec<Phase>,
+        /// Orientation of the position axis: 1 if the position increases into the
+        /// material, -1 if it decreases (default: detected from the record).
+        #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
+        position_sign: Option<i8>,
+        /// The force offset (N) to remove, if known (default: estimated from the samples
+        /// out of contact; 0 when the record never leaves contact).
+        #[arg(long, allow_hyphen_values = true)]
+        force_offset_n: Option<f64>,
+        /// Memory of the estimators' recursive least squares (s): the forgetting factor is
+        /// 1 − T/memory (default: the record's time in contact, at least 2 s; the firmware
+        /// uses 2 s to track changes).
+        #[arg(long)]
+        memory_s: Option<f64>,
+        /// Start the estimator from its defaults, as the firmware does (default: from the
+        /// whole-record fit of the front end).
+        #[arg(long)]
+        cold_start: bool,
     },
     /// Discrepancy workflow: fit a baseline model to a measured log, localise where the
     /// simulation and the measurement disagree, add the missing physical effects one at
@@ -180,11 +197,21 @@ fn main() -> ExitCode {
             bandwidth_hz,
             tare_samples,
             phase,
+            position_sign,
+            force_offset_n,
+            memory_s,
+            cold_start,
         }) => {
             let overrides = Overrides {
                 onset_threshold_n,
                 bandwidth_hz,
                 tare_samples,
+                front_end: host_sim::frontend::Options {
+                    position_sign: position_sign.map(f64::from),
+                    force_offset_n,
+                },
+                memory_s,
+                cold_start,
             };
             let phases = (!phase.is_empty()).then_some(phase);
             estimate_files(
@@ -204,6 +231,15 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// `--position-sign`: 1 or -1 (also +1).
+fn parse_sign(s: &str) -> Result<i8, String> {
+    match s.trim() {
+        "1" | "+1" => Ok(1),
+        "-1" => Ok(-1),
+        other => Err(format!("expected 1 or -1, got `{other}`")),
     }
 }
 
@@ -380,16 +416,26 @@ fn print_run(path: &Path, run: &FileRun) {
     for note in &run.notes {
         eprintln!("  · {note}");
     }
+    for warning in &run.warnings {
+        eprintln!("  warning: {warning}");
+    }
     for ((name, value), (_, se)) in runner::named(&r.parameters)
         .into_iter()
         .zip(runner::named(&r.standard_errors))
     {
-        eprintln!("  {name:>8} = {value:.5e} ± {se:.2e}");
+        let verdict = if let Some(v) = run.held.get(name) {
+            format!("  (held at {v}: not determined by the record)")
+        } else if run.identifiable.get(name) == Some(&false) {
+            "  (NOT determined by the record)".to_string()
+        } else {
+            String::new()
+        };
+        eprintln!("  {name:>8} = {value:.5e} ± {se:.2e}{verdict}");
     }
     eprintln!(
         "  contact at {:.6e} m, force offset {:.4e} N, {} samples in contact, NRMSE {}, VAF {}",
-        r.contact_position_m,
-        r.force_offset_n,
+        run.front_end.contact_position_m,
+        run.front_end.force_offset_n,
         r.contact_samples,
         r.nrmse_percent.map_or("-".into(), |v| format!("{v:.2} %")),
         r.vaf_percent.map_or("-".into(), |v| format!("{v:.1} %")),
@@ -454,8 +500,8 @@ fn demo(out: &Path, data: &Path) -> Result<()> {
                         run.result
                             .nrmse_percent
                             .map_or("-".into(), |v| format!("{v:.2} %")),
-                        run.result.contact_position_m,
-                        run.result.force_offset_n
+                        run.front_end.contact_position_m,
+                        run.front_end.force_offset_n
                     ));
                 }
                 Err(e) => {

@@ -96,6 +96,9 @@ pub struct RunResult {
     pub first_contact: Option<usize>,
     /// Number of in-contact samples.
     pub contact_samples: usize,
+    /// Samples that updated the estimator (in contact, not skipped: not saturated,
+    /// dropped, paused, pending a contact point, nor below the depth guard).
+    pub updates: usize,
     /// NRMSE \[%\] of the final model simulated on the in-contact motion against the
     /// conditioned measured force (range-normalised).
     pub nrmse_percent: Option<f64>,
@@ -136,6 +139,15 @@ pub enum RunError {
         offset_n: f64,
     },
 }
+
+/// Flags of a sample whose estimator update did not happen.
+const NOT_UPDATED: Status = Status::NO_CONTACT
+    .union(Status::SATURATED)
+    .union(Status::SAMPLE_DROPPED)
+    .union(Status::ESTIMATION_PAUSED)
+    .union(Status::CONTACT_PENDING)
+    .union(Status::GUARD_DEPTH)
+    .union(Status::NON_FINITE_INPUT);
 
 /// Runs the pipeline over `position_m` \[m\] and `force_n` \[N\] sampled at
 /// `options.pipeline.sample_time_s`. `saturated` marks samples at a sensor limit (may be
@@ -214,11 +226,10 @@ pub fn run(
         }
     }
     progress(n);
-    let detector = pipeline.detector();
     let Some(first) = first_contact else {
         return Err(RunError::NoContact {
-            threshold_n: f64::from(detector.onset_threshold_n()),
-            offset_n: f64::from(detector.force_offset_n()),
+            threshold_n: f64::from(pipeline.onset_threshold_n()),
+            offset_n: f64::from(pipeline.force_offset_n()),
         });
     };
     let parameters = pipeline.estimator().parameters();
@@ -244,11 +255,16 @@ pub fn run(
         model: options.model,
         parameters,
         standard_errors: pipeline.estimator().standard_errors(),
-        contact_position_m: f64::from(detector.contact_position_m()),
-        force_offset_n: f64::from(detector.force_offset_n()),
-        force_noise_n: f64::from(detector.force_noise_n()),
+        contact_position_m: f64::from(pipeline.contact_position_m()),
+        force_offset_n: f64::from(pipeline.force_offset_n()),
+        force_noise_n: f64::from(pipeline.force_noise_n()),
         first_contact: Some(first),
         contact_samples: trace.contact.iter().filter(|c| **c).count(),
+        updates: trace
+            .status
+            .iter()
+            .filter(|&&bits| !Status::from_bits_truncate(bits).intersects(NOT_UPDATED))
+            .count(),
         nrmse_percent: nrmse,
         vaf_percent: vaf,
         status_counts: counts,

@@ -15,9 +15,19 @@ pub struct Overrides {
     pub onset_threshold_n: Option<f64>,
     /// State-variable filter bandwidth \[Hz\].
     pub bandwidth_hz: Option<f64>,
-    /// Free-space samples (at 1 kHz) for the tare.
+    /// Free-space samples (at 1 kHz) for the online tare (`--online-front-end` only).
     pub tare_samples: Option<u32>,
+    /// Axis orientation and force offset, if known (see [`crate::frontend::Options`]).
+    pub front_end: crate::frontend::Options,
+    /// RLS memory \[s\] (default: the record's time in contact, at least 2 s).
+    pub memory_s: Option<f64>,
+    /// Start the estimator from its defaults, as the firmware does, instead of from the
+    /// front end's whole-record fit.
+    pub cold_start: bool,
 }
+
+/// Shortest RLS memory on a record \[s\]: the estimators' own default (β = 0.9995 at 1 kHz).
+pub const MIN_MEMORY_S: f64 = 2.0;
 
 /// Robust noise level of `x` \[same unit\]: the median absolute second difference scaled to
 /// a standard deviation (σ = MAD(Δ²x)/0.6745/√6). Second differences cancel slow signal
@@ -52,6 +62,10 @@ fn range(x: &[f64]) -> f64 {
 /// the reasons for each choice. `native_force_n` is the force at the file's own rate
 /// `native_rate_hz` (before resampling), whose sample-to-sample noise is not smoothed by
 /// interpolation.
+///
+/// The pipeline tares and detects contacts online, as the firmware does; a record set up
+/// by the whole-record front end then switches to its known surface and offset
+/// ([`estimator_core::PipelineConfig::with_known_surface_and_offset`]).
 pub fn options_for_record(
     model: ModelKind,
     position_m: &[f64],
@@ -80,14 +94,14 @@ pub fn options_for_record(
             .max(0.005 * force_range)
             .max(f64::MIN_POSITIVE)
     });
-    options.pipeline.contact.onset_threshold_n = onset as f32;
-    options.pipeline.contact.noise_multiplier = 8.0;
+    options.pipeline.impact.onset_threshold_n = onset as f32;
+    options.pipeline.impact.noise_multiplier = 8.0;
     notes.push(format!(
         "contact onset threshold {onset:.3e} N (noise σ = {sigma:.3e} N from second differences; {})",
         if overrides.onset_threshold_n.is_some() { "given" } else { "max(8σ, 0.5 % of the force range)" }
     ));
     if let Some(tare) = overrides.tare_samples {
-        options.pipeline.contact.tare_samples = tare.max(1);
+        options.pipeline.tare.startup_samples = tare.max(1);
         notes.push(format!("tare over the first {tare} samples (given)"));
     }
     // The filter cannot see beyond the file's own Nyquist rate: resampling to 1 kHz adds
@@ -105,29 +119,47 @@ pub fn options_for_record(
             format!("min({default_bw} Hz, a tenth of the native {native_rate_hz:.1} Hz)")
         }
     ));
-    // Loading speed v*: 10 % of the 99th-percentile speed. Drift of the force offset is
+    // Loading speed v*: 5 % of the 99.9th-percentile speed. Drift of the force offset is
     // only learned while the probe is slower than v*/2: a slow compression of a soft
     // sample is not drift.
     let v_star = crate::phases::speed_threshold(position_m, 1.0e-3);
     // A slow test may take seconds to load from half to twice the onset threshold.
-    options.pipeline.contact.refinement_timeout_samples = (position_m.len() / 10).max(500) as u32;
-    options.pipeline.contact.tare_tracking_max_speed_m_per_s = (0.5 * v_star) as f32;
-    notes.push(format!(
-        "force offset tracked only while the probe moves slower than {:.3e} m/s",
-        0.5 * v_star
-    ));
+    options.pipeline.refinement.timeout_samples = (position_m.len() / 10).max(500) as u32;
+    options.pipeline.tare.tracking_max_speed_m_per_s = (0.5 * v_star) as f32;
 
     // Logarithm guards relative to the record: 2 % of the force range, 1 % of the depth.
     let min_force = (0.02 * force_range).max(3.0 * sigma);
     let min_depth = 0.01 * depth_range;
     // Hammerstein δ̇*: the loading-speed threshold v* (the paper: 10 mm/s for a 30 mm/s
     // ramp). Per-sample differences would be dominated by position noise.
+    // RLS memory: a file is estimated as a whole, so the estimators remember all of its
+    // time in contact (β = 1 − T/memory); the firmware keeps its 2 s memory to track
+    // changes. The start-up forgetting still lets the coupled stages iterate early on.
+    let in_contact_s = 1.0e-3 * position_m.iter().filter(|d| **d > 0.0).count() as f64;
+    let memory_s = overrides.memory_s.unwrap_or(in_contact_s).max(MIN_MEMORY_S);
+    notes.push(format!(
+        "estimator memory {memory_s:.3} s ({}; β = {:.7})",
+        if overrides.memory_s.is_some() {
+            "given".to_string()
+        } else {
+            format!("the record's time in contact, at least {MIN_MEMORY_S} s")
+        },
+        1.0 - 1.0e-3 / memory_s
+    ));
     options.settings = EstimatorSettings {
         scaling,
-        forgetting: None,
+        forgetting: Some(estimator_core::rls::Forgetting::Fixed {
+            beta: (1.0 - 1.0e-3 / memory_s) as f32,
+        }),
         min_depth_m: Some(min_depth as f32),
         min_force_n: Some(min_force as f32),
         min_depth_rate_m_per_s: Some(v_star as f32),
+        hold_damping: false,
+        initial: None,
+        // Additive force noise of variance σ² is log noise of variance σ²/F²: weighting the
+        // log residual by F² is maximum likelihood; uniform weights let the noisiest
+        // samples near the force guard pull the exponent.
+        log_weighting: Some(estimator_core::hunt_crossley::LogWeighting::ForceSquared),
     };
     notes.push(format!(
         "logarithm guards: F > {min_force:.3e} N, δ > {min_depth:.3e} m{}",

@@ -232,11 +232,50 @@ fn error_file_without_contact() {
     let line = estimate_error(&path);
     assert!(
         line.starts_with(&format!(
-            "error: {}: no contact found: the force never rose above the onset threshold",
+            "error: {}: no contact: the force does not follow the position",
             path.display()
         )),
         "{line}"
     );
+}
+
+#[test]
+fn error_constant_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time_s,position_m,force_n\n");
+    for i in 0..500 {
+        text.push_str(&format!("{},{},0.125\n", i as f64 * 1e-3, i as f64 * 1e-6));
+    }
+    let path = write(&dir, "flat.csv", &text);
+    let line = estimate_error(&path);
+    assert_eq!(
+        line,
+        format!(
+            "error: {}: no contact: the force never changes (it is 1.25e-1 N in all 500 samples)",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn error_values_beyond_f32_and_the_pipeline_range() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, value, expected) in [
+        ("huge.csv", "1e40", "field `force_n`: 1e40 N overflows f32"),
+        (
+            "mega.csv",
+            "2.5e7",
+            "field `force_n`: 2.5e7 N is beyond the estimator's input range",
+        ),
+    ] {
+        let text = format!("time_s,position_m,force_n\n0,0,0\n0.001,1e-6,{value}\n0.002,2e-6,0\n");
+        let path = write(&dir, name, &text);
+        let line = estimate_error(&path);
+        assert!(
+            line.starts_with(&format!("error: {}:3: {expected}", path.display())),
+            "{line}"
+        );
+    }
 }
 
 #[test]

@@ -14,7 +14,7 @@
 
 use std::ops::Range;
 
-use estimator_core::conditioning::ContactDetectorConfig;
+use estimator_core::conditioning::ImpactConfig;
 use host_sim::diagnose::model::Effect;
 use host_sim::diagnose::{data, diagnose, Options};
 use host_sim::generator;
@@ -42,7 +42,7 @@ fn run(effects: &[Effect]) -> Outcome {
             &g.log.time_s,
             &g.log.position_m,
             &g.log.force_n,
-            ContactDetectorConfig::default(),
+            ImpactConfig::default(),
         )
         .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         let d = diagnose(&prepared, &Options::default())

@@ -210,7 +210,10 @@ fn cli_reports_a_log_without_contact() {
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(
-        stderr.contains(&format!("error: {}: no contact found", path.display())),
+        stderr.contains(&format!(
+            "error: {}: the position never changes",
+            path.display()
+        )),
         "{stderr}"
     );
 }

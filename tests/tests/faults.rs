@@ -805,24 +805,24 @@ fn press_and_dwell(dwell_s: f64, seconds: f64) -> (Trajectory, Vec<f64>) {
 /// 0.2 mm/s: an approaching probe whose force creeps up is touching, not drifting), so
 /// the motion alternates 4 s of pressing with 10 s held still 1 mm above the surface.
 ///
-/// The tracking is slower than its nominal 2 s time constant (`tare_tracking_samples`):
+/// The tracking is slower than its nominal 2 s time constant (`TareConfig::tracking_samples`):
 /// it only uses samples within the release threshold of the current offset (a quarter of
 /// the onset threshold, ≈ 30 mN = 1.5 σ with the rig's 20 mN noise), and that truncated
 /// mean pulls each correction towards the current estimate. Measured on a 20 mN step of
 /// the offset with the probe still: 63 % learned after ≈ 5 s at 20 mN noise, after
-/// ≈ 1.8 s without noise. Once the offset error exceeds the release threshold, contact
-/// is never released again, so the tare never runs again and the error grows without
-/// bound: at 0.1 mV/s with 3 s dwells this happened 25 s in (88 mN behind at 60 s), at
-/// 0.05 mV/s with 5 s dwells 36 s in. And Γ2's logarithm of the force down to its
-/// 0.2 N guard makes n̂ sensitive to the residual offset.
+/// ≈ 1.8 s without noise. An offset error beyond the release threshold keeps the
+/// detector in contact; the next free-space stretch (the probe travelling behind the
+/// contact point with a flat force) then re-tares even so. And Γ2's logarithm of the
+/// force down to its 0.2 N guard makes n̂ sensitive to the residual offset.
 ///
-/// Measured here: the offset found at the end of each dwell is 0.4, 4.0, 8.8, 13.7 mN
-/// behind the truth, the contact released every time; from 10 s to 60 s n 5.7 %,
-/// k·(1 mm)ⁿ 1.3 %, λ·(1 mm)ⁿ 8.4 % (n leaves the 3 % band in the last press, with the
-/// offset 14 mN behind; without drift the same motion gives n 1.0 %). Under continuous
-/// pressing the drift is never learned: 29 mN behind at 60 s. Asserted: every dwell ends
-/// in free space with the offset less than 20 mN behind, the continuous run at least
-/// 27 mN behind; with dwells k·(1 mm)ⁿ and λ·(1 mm)ⁿ in the band and n within 8 %.
+/// Measured here: the offset found at the end of each dwell is 3.7, −0.4, 2.5, 4.3 mN
+/// behind the truth (each dwell's free-space stretch re-tares), the contact released
+/// every time; from 10 s to 60 s n 1.9 %, k·(1 mm)ⁿ 0.3 %, λ·(1 mm)ⁿ 9.0 %. Under
+/// continuous pressing the probe leaves the surface by only 50 µm per stroke, too little
+/// for a free-space stretch behind the contact point (30 µm of travel, 30 µm behind it):
+/// the offset is 25 mN behind at 60 s. Asserted: every dwell ends in free space with the
+/// offset less than 20 mN behind, the continuous run more than 20 mN behind; with dwells
+/// k·(1 mm)ⁿ and λ·(1 mm)ⁿ in the band and n within 8 %.
 #[test]
 fn load_cell_offset_drift_is_tracked_while_the_probe_is_still() {
     let drift_v_per_s = 0.025e-3;
@@ -864,7 +864,7 @@ fn load_cell_offset_drift_is_tracked_while_the_probe_is_still() {
         pressing_only.worst_errors(10.0, 60.0, &truth),
     );
     assert!(behind.iter().all(|b| b.abs() < 0.020), "{behind:?}");
-    assert!(untracked > 0.027, "{untracked}");
+    assert!(untracked > 0.020, "{untracked}");
     let (a, b) = (dwelling.index(10.0), dwelling.index(60.0));
     let worst = |name: &str| {
         (a..b)

@@ -3,7 +3,7 @@
 //! force on the same time base), derivatives, and the phases of the test.
 
 use estimator_core::conditioning::{
-    ContactDetector, ContactDetectorConfig, ContactState, RecontactPolicy,
+    ForceTare, ImpactConfig, ImpactDetector, RecontactPolicy, TareConfig,
 };
 
 use crate::phases::{Phase, PhaseClassifier};
@@ -86,35 +86,122 @@ pub fn prepare(
     time_s: &[f64],
     position_m: &[f64],
     force_n: &[f64],
-    detector: ContactDetectorConfig,
+    detector: ImpactConfig,
 ) -> Result<Prepared, PrepareError> {
     let n = time_s.len().min(position_m.len()).min(force_n.len());
     if n < MIN_SAMPLES {
         return Err(PrepareError::TooShort(n));
     }
-    let config = ContactDetectorConfig {
+    let impact_config = ImpactConfig {
         recontact: RecontactPolicy::FirstImpact,
-        tare_tracking_samples: 0,
         ..detector
     };
-    let mut det = match ContactDetector::try_new(config) {
-        Ok(d) => d,
-        Err(_) => {
-            ContactDetector::try_new(ContactDetectorConfig::default()).expect("defaults are valid")
-        }
-    };
+    let mut impact = ImpactDetector::try_new(impact_config)
+        .or_else(|_| ImpactDetector::try_new(ImpactConfig::default()))
+        .expect("defaults are valid");
+    // The offset is the mean of the first samples, frozen (no free-space re-estimation).
+    let mut tare = ForceTare::try_new(TareConfig {
+        tracking_samples: 0,
+        free_space_travel_m: 1.0e30,
+        ..TareConfig::default()
+    })
+    .expect("defaults are valid");
     let mut contact = Vec::with_capacity(n);
+    let mut frozen_offset = None;
     for i in 0..n {
-        let u = det.update(position_m[i] as f32, force_n[i] as f32);
-        contact.push(u.state == ContactState::InContact);
+        let (x, f) = (position_m[i] as f32, force_n[i] as f32);
+        let noise = tare.noise_n();
+        if frozen_offset.is_none() {
+            tare.update(
+                x,
+                f,
+                0.0,
+                false,
+                f32::NAN,
+                impact.config().release_threshold(noise),
+            );
+        }
+        let offset = frozen_offset.unwrap_or(tare.offset_n());
+        let u = impact.update(x, f - offset, 0.0, noise, tare.samples() >= 20);
+        if impact.in_contact() && frozen_offset.is_none() {
+            frozen_offset = Some(offset);
+        }
+        let _ = u;
+        contact.push(impact.in_contact());
     }
     let Some(first) = contact.iter().position(|c| *c) else {
         return Err(PrepareError::NoContact {
-            threshold_n: f64::from(det.onset_threshold_n()),
+            threshold_n: f64::from(impact.config().onset_threshold(tare.noise_n())),
         });
     };
-    let offset = f64::from(det.force_offset_n());
-    let x_c = f64::from(det.contact_position_m());
+    let offset = f64::from(frozen_offset.unwrap_or(tare.offset_n()));
+    let x_c = f64::from(impact.contact_position_m());
+    // Noise of one raw sample: spread of the raw force before the first contact.
+    let quiet = &force_n[..first];
+    let noise_raw = if quiet.len() > 10 {
+        let m = quiet.iter().sum::<f64>() / quiet.len() as f64;
+        (quiet.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (quiet.len() - 1) as f64).sqrt()
+    } else {
+        crate::setup::noise_level(&force_n[..n])
+    };
+    Ok(assemble(
+        &time_s[..n],
+        &position_m[..n],
+        &force_n[..n],
+        &contact,
+        offset,
+        x_c,
+        noise_raw,
+    ))
+}
+
+/// Prepares a log whose force offset `offset_n` \[N\], contact position `contact_m` \[m\]
+/// (on the log's own position axis, positive into the material) and raw-sample noise
+/// `noise_n` \[N\] are known (the whole-record front end's): contact is geometric,
+/// x > x_contact.
+///
+/// # Errors
+/// [`PrepareError`] when the log is too short or never goes beyond the contact point.
+pub fn prepare_known(
+    time_s: &[f64],
+    position_m: &[f64],
+    force_n: &[f64],
+    offset_n: f64,
+    contact_m: f64,
+    noise_n: f64,
+) -> Result<Prepared, PrepareError> {
+    let n = time_s.len().min(position_m.len()).min(force_n.len());
+    if n < MIN_SAMPLES {
+        return Err(PrepareError::TooShort(n));
+    }
+    let contact: Vec<bool> = position_m[..n].iter().map(|x| *x > contact_m).collect();
+    if !contact.iter().any(|c| *c) {
+        return Err(PrepareError::NoContact { threshold_n: 0.0 });
+    }
+    Ok(assemble(
+        &time_s[..n],
+        &position_m[..n],
+        &force_n[..n],
+        &contact,
+        offset_n,
+        contact_m,
+        noise_n,
+    ))
+}
+
+/// Block means, derivatives and phases of a log with per-sample contact flags, offset,
+/// contact position and raw-sample noise.
+fn assemble(
+    time_s: &[f64],
+    position_m: &[f64],
+    force_n: &[f64],
+    contact: &[bool],
+    offset: f64,
+    x_c: f64,
+    noise_raw: f64,
+) -> Prepared {
+    let n = time_s.len();
+    let first = contact.iter().position(|c| *c).unwrap_or(0);
     let native_dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let block = ((BLOCK_S / native_dt).round() as usize)
         .max(n.div_ceil(MAX_BLOCKS))
@@ -135,12 +222,11 @@ pub fn prepare(
                 > block
         })
         .collect();
-    let rate: Vec<f64> = (0..blocks)
-        .map(|b| {
-            let (lo, hi) = (b.saturating_sub(1), (b + 1).min(blocks - 1));
-            (depth[hi] - depth[lo]) / ((hi - lo).max(1) as f64 * dt)
-        })
-        .collect();
+    // The symmetric difference whose window keeps the position noise small against the
+    // motion (the front end's): a slow indentation's nanometre jitter would otherwise
+    // flicker the phases between loading and hold.
+    let block_time: Vec<f64> = (0..blocks).map(|b| b as f64 * dt).collect();
+    let rate = crate::frontend::series::rate_estimate(&block_time, &depth);
     let accel: Vec<f64> = (0..blocks)
         .map(|b| {
             if b == 0 || b + 1 >= blocks {
@@ -161,15 +247,7 @@ pub fn prepare(
     let first_contact_end = (first_block..blocks)
         .find(|b| depth[*b] <= 0.0)
         .unwrap_or(blocks);
-    // Noise of one fitting sample: spread of the raw force before the first contact.
-    let quiet = &force_n[..first];
-    let noise_raw = if quiet.len() > 10 {
-        let m = quiet.iter().sum::<f64>() / quiet.len() as f64;
-        (quiet.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (quiet.len() - 1) as f64).sqrt()
-    } else {
-        crate::setup::noise_level(&force_n[..n])
-    };
-    Ok(Prepared {
+    Prepared {
         dt,
         time_s: (0..blocks).map(|b| avg(time_s, b)).collect(),
         depth_m: depth,
@@ -211,7 +289,7 @@ pub fn prepare(
             .collect(),
         block,
         first_contact_end,
-    })
+    }
 }
 
 /// Fewest raw samples of a log.

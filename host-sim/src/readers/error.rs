@@ -70,6 +70,18 @@ pub enum ReadErrorKind {
         /// The cell's text, or the derived value.
         text: String,
     },
+    /// A value that the estimator core, which computes in f32, cannot take: beyond
+    /// ±f32::MAX it overflows, beyond the pipeline's input range (±1e6 m or N) it would
+    /// be dropped as a sensor fault.
+    #[error("{value:e} {unit} {reason}")]
+    OutOfRange {
+        /// The value in SI.
+        value: f64,
+        /// Its unit.
+        unit: &'static str,
+        /// "overflows f32 (|x| ≤ 3.4e38)" or the pipeline's limit.
+        reason: &'static str,
+    },
     /// Time does not strictly increase from one row to the next.
     #[error("time not strictly increasing: {value} s here, {previous} s on line {previous_line}")]
     TimeNotIncreasing {

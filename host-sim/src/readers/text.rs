@@ -216,11 +216,32 @@ impl<'p> Samples<'p> {
         position_m: f64,
         force_n: f64,
     ) -> Result<(), ReadError> {
-        for (value, field) in [
-            (time_s, &self.time_field),
-            (position_m, &self.position_field),
-            (force_n, &self.force_field),
+        for (value, field, unit) in [
+            (time_s, &self.time_field, "s"),
+            (position_m, &self.position_field, "m"),
+            (force_n, &self.force_field, "N"),
         ] {
+            let out_of_range = if value.abs() > f64::from(f32::MAX) {
+                Some("overflows f32 (|x| ≤ 3.4e38): the estimator core computes in f32")
+            } else if unit != "s"
+                && value.abs() > f64::from(estimator_core::pipeline::MAX_ABS_INPUT)
+            {
+                Some("is beyond the estimator's input range (|x| ≤ 1e6 in SI): check the file's unit")
+            } else {
+                None
+            };
+            if let (Some(reason), true) = (out_of_range, value.is_finite()) {
+                return Err(ReadError::at(
+                    self.path,
+                    line,
+                    Some(field),
+                    ReadErrorKind::OutOfRange {
+                        value,
+                        unit,
+                        reason,
+                    },
+                ));
+            }
             if !value.is_finite() {
                 return Err(ReadError::at(
                     self.path,

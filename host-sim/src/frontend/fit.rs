@@ -1,0 +1,604 @@
+//! Joint least-squares fit of the force offset, the contact point and a contact law to a
+//! whole record (variable projection): for a given contact point u_c, exponent n and
+//! relaxation rate ν the force is linear in the offset and two coefficients,
+//!
+//! F ≈ F0 + a·g(δ) + b·h,  δ = u − u_c,
+//!
+//! with, per [`LawFamily`] (the laws of [`estimator_core::laws`]):
+//! - Kelvin-Voigt (eq. 1): g = δ, h = δ̇ (in contact): a = κ, b = λ;
+//! - Hunt-Crossley (eq. 3): g = δⁿ, h = δⁿ·δ̇: a = k, b = λ;
+//! - Zener (eq. 2, a linear QLV with one mode): g = δ, h = R_ν\[δ\]: a = κ∞ (relaxed),
+//!   a + b = κ0 (instantaneous);
+//! - power-law QLV (eqs. 10, 14; the Hammerstein form, eqs. 38-39): g = δⁿ, h = R_ν\[δⁿ\]:
+//!   a = γ1·c0, a + b = γ1,
+//!
+//! where R_ν\[g\] is the relaxing part of the convolution (9) with one mode e^{−ν·t}: the state
+//! z' = −ν·z + dg/dt, stepped exactly for g linear over each step
+//! ([`estimator_core::laws::first_order_hold`]). The nonlinear parameters are found by a
+//! grid over u_c with golden-section searches over n and ν, then refined. For the memoryless
+//! laws, points where the fitted law is negative while δ > 0 (the probe retracting faster
+//! than the material recovers: it has left the surface) are taken as free, as the
+//! unilateral contact requires.
+
+use estimator_core::laws;
+use nalgebra::{Matrix3, Vector3};
+
+use super::series::Series;
+
+/// The law fitted with the offset and the contact point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LawFamily {
+    /// κ·δ + λ·δ̇ (eq. 1): the force jumps by λ·δ̇ at the contact point.
+    KelvinVoigt,
+    /// δⁿ·(k + λ·δ̇) (eq. 3): the force rises from zero as a power law.
+    HuntCrossley,
+    /// Linear elasticity with one relaxation mode (eq. 2).
+    Zener,
+    /// Power-law elasticity with one relaxation mode (QLV, eqs. 10 and 14; Hammerstein).
+    PowerLawRelaxation,
+}
+
+impl LawFamily {
+    /// The law has an exponent n.
+    pub fn has_exponent(self) -> bool {
+        matches!(
+            self,
+            LawFamily::HuntCrossley | LawFamily::PowerLawRelaxation
+        )
+    }
+
+    /// The law has a relaxation mode.
+    pub fn has_relaxation(self) -> bool {
+        matches!(self, LawFamily::Zener | LawFamily::PowerLawRelaxation)
+    }
+
+    /// Name and equation, for notes.
+    pub fn describe(self) -> &'static str {
+        match self {
+            LawFamily::KelvinVoigt => "Kelvin-Voigt (eq. 1)",
+            LawFamily::HuntCrossley => "Hunt-Crossley (eq. 3)",
+            LawFamily::Zener => "Zener (eq. 2)",
+            LawFamily::PowerLawRelaxation => "power-law QLV with one relaxation mode (eqs. 10, 14)",
+        }
+    }
+}
+
+/// Where the offset comes from in a fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OffsetTerm {
+    /// Estimated with the law.
+    Free,
+    /// Held at this value \[N\].
+    Fixed(f64),
+}
+
+/// A fitted law with offset and contact point, on an axis `u = sign·x` \[m\] positive into
+/// the material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawFit {
+    /// Law family.
+    pub family: LawFamily,
+    /// Offset F0 \[N\].
+    pub offset_n: f64,
+    /// Contact point u_c \[m\] on the oriented axis.
+    pub contact_m: f64,
+    /// Exponent n (1 without one).
+    pub exponent: f64,
+    /// Coefficient a of g: κ \[N/m\], k \[N/mⁿ\], κ∞ or γ1·c0.
+    pub stiffness: f64,
+    /// Coefficient b of h: λ (memoryless laws) or the relaxing part (γ1·c1, κ0 − κ∞).
+    pub second: f64,
+    /// Relaxation rate ν \[1/s\] (0 without relaxation).
+    pub rate_per_s: f64,
+    /// Residual sum of squares \[N²\] over the fitted points.
+    pub rss: f64,
+    /// Points fitted.
+    pub points: usize,
+}
+
+impl LawFit {
+    /// The damping coefficient λ of a memoryless law (0 for the relaxation laws).
+    pub fn damping(&self) -> f64 {
+        if self.family.has_relaxation() {
+            0.0
+        } else {
+            self.second
+        }
+    }
+
+    /// The instantaneous elastic coefficient (γ1 of the Hammerstein form, κ0 of Zener):
+    /// a + b for the relaxation laws, a otherwise.
+    pub fn instantaneous_stiffness(&self) -> f64 {
+        if self.family.has_relaxation() {
+            self.stiffness + self.second
+        } else {
+            self.stiffness
+        }
+    }
+
+    /// The law's force \[N\] (offset excluded, unclamped) along a record: penetrations
+    /// \[m\], rates \[m/s\] and times \[s\] of its points, in time order.
+    pub fn predict(&self, depth_m: &[f64], rate_m_per_s: &[f64], time_s: &[f64]) -> Vec<f64> {
+        let g: Vec<f64> = depth_m
+            .iter()
+            .map(|&d| elastic_shape(self.family, d, self.exponent))
+            .collect();
+        let h = match self.family {
+            LawFamily::KelvinVoigt => depth_m
+                .iter()
+                .zip(rate_m_per_s)
+                .map(|(&d, &v)| if d > 0.0 { v } else { 0.0 })
+                .collect(),
+            LawFamily::HuntCrossley => g.iter().zip(rate_m_per_s).map(|(g, v)| g * v).collect(),
+            LawFamily::Zener | LawFamily::PowerLawRelaxation => {
+                relaxing(&g, time_s, self.rate_per_s)
+            }
+        };
+        g.iter()
+            .zip(&h)
+            .map(|(g, h)| self.stiffness * g + self.second * h)
+            .collect()
+    }
+
+    /// RMS residual \[N\].
+    pub fn rms_n(&self) -> f64 {
+        (self.rss / self.points.max(1) as f64).sqrt()
+    }
+}
+
+/// g(δ): δ for the linear laws, δⁿ ([`laws::power_law`]) for the others; 0 for δ ≤ 0.
+fn elastic_shape(family: LawFamily, depth: f64, exponent: f64) -> f64 {
+    if family.has_exponent() {
+        laws::power_law(depth, exponent)
+    } else {
+        depth.max(0.0)
+    }
+}
+
+/// The relaxing state of one mode driven by `g` (time order): z' = −ν·z + dg/dt, exact for
+/// g linear within each step (the QLV model's discretisation, [`laws::first_order_hold`]).
+pub fn relaxing(g: &[f64], time_s: &[f64], rate_per_s: f64) -> Vec<f64> {
+    let mut z = 0.0;
+    let mut out = Vec::with_capacity(g.len());
+    for i in 0..g.len() {
+        if i > 0 {
+            let dt = (time_s[i] - time_s[i - 1]).max(f64::MIN_POSITIVE);
+            let (decay, one_minus, _) = laws::first_order_hold(rate_per_s, dt);
+            z = decay * z + (g[i] - g[i - 1]) * one_minus / (rate_per_s * dt);
+        }
+        out.push(z);
+    }
+    out
+}
+
+/// The fitting problem on one axis orientation, in scaled units (length L, force S) so
+/// that the normal equations are well conditioned.
+pub struct Problem<'a> {
+    series: &'a Series,
+    sign: f64,
+    family: LawFamily,
+    offset: OffsetTerm,
+    /// The memoryless laws' damping term is fitted (else held at 0).
+    damping: bool,
+    /// Length and force units.
+    length: f64,
+    force: f64,
+    rate: f64,
+    /// u/L, F/S, δ̇/(L·R) per point, and time.
+    u: Vec<f64>,
+    f: Vec<f64>,
+    v: Vec<f64>,
+    t: Vec<f64>,
+}
+
+/// Exponent search range.
+pub const EXPONENT_RANGE: (f64, f64) = (0.3, 4.0);
+
+/// Most points of the coarse grid search over the contact point.
+pub const COARSE_POINTS: usize = 1500;
+
+/// The nonlinear parameters of one evaluation: scaled contact point, exponent, rate.
+#[derive(Debug, Clone, Copy)]
+struct Knobs {
+    uc: f64,
+    n: f64,
+    nu: f64,
+}
+
+impl<'a> Problem<'a> {
+    /// The problem for `series` on the axis `u = sign·x`.
+    pub fn new(series: &'a Series, sign: f64, family: LawFamily, offset: OffsetTerm) -> Self {
+        let x = &series.position_m;
+        let (lo, hi) = min_max(x);
+        let (flo, fhi) = min_max(&series.force_n);
+        let length = (hi - lo).max(f64::MIN_POSITIVE);
+        let force = (fhi - flo).max(f64::MIN_POSITIVE);
+        let rate = series
+            .rate_m_per_s
+            .iter()
+            .map(|v| v.abs())
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE)
+            / length;
+        Problem {
+            series,
+            sign,
+            family,
+            offset,
+            damping: true,
+            length,
+            force,
+            rate,
+            u: x.iter().map(|x| sign * x / length).collect(),
+            f: series.force_n.iter().map(|f| f / force).collect(),
+            v: series
+                .rate_m_per_s
+                .iter()
+                .map(|v| sign * v / (length * rate))
+                .collect(),
+            t: series.time_s.clone(),
+        }
+    }
+
+    /// The same problem with the memoryless laws' damping held at 0 (a loading curve alone
+    /// cannot tell damping from stiffness).
+    pub fn without_damping(mut self) -> Self {
+        self.damping = false;
+        self
+    }
+
+    /// Range of the oriented axis \[m\]: (shallowest, deepest).
+    pub fn axis_range_m(&self) -> (f64, f64) {
+        let (lo, hi) = min_max(&self.u);
+        (lo * self.length, hi * self.length)
+    }
+
+    /// Columns (g, h) at `knobs`, in scaled units.
+    fn columns(&self, k: Knobs) -> (Vec<f64>, Vec<f64>) {
+        let g: Vec<f64> = self
+            .u
+            .iter()
+            .map(|u| elastic_shape(self.family, u - k.uc, k.n))
+            .collect();
+        let h = match self.family {
+            _ if !self.damping && !self.family.has_relaxation() => vec![0.0; g.len()],
+            LawFamily::KelvinVoigt => g
+                .iter()
+                .zip(&self.v)
+                .map(|(g, v)| if *g > 0.0 { *v } else { 0.0 })
+                .collect(),
+            LawFamily::HuntCrossley => g.iter().zip(&self.v).map(|(g, v)| g * v).collect(),
+            LawFamily::Zener | LawFamily::PowerLawRelaxation => relaxing(&g, &self.t, k.nu),
+        };
+        (g, h)
+    }
+
+    /// Least squares at `knobs` in scaled units: (θ = \[F0, a, b\], rss). For the memoryless
+    /// laws, points whose law is negative in the first solution are refitted as free.
+    fn solve(&self, k: Knobs) -> Option<(Vector3<f64>, f64)> {
+        let fixed = match self.offset {
+            OffsetTerm::Free => None,
+            OffsetTerm::Fixed(f0) => Some(f0 / self.force),
+        };
+        let (g, h) = self.columns(k);
+        let mut free = vec![false; g.len()];
+        let mut result = None;
+        for round in 0..2 {
+            let mut a = Matrix3::<f64>::zeros();
+            let mut b = Vector3::<f64>::zeros();
+            let mut yy = 0.0;
+            for i in 0..g.len() {
+                let y = self.f[i] - fixed.unwrap_or(0.0);
+                let (gi, hi) = if free[i] { (0.0, 0.0) } else { (g[i], h[i]) };
+                let phi = Vector3::new(if fixed.is_some() { 0.0 } else { 1.0 }, gi, hi);
+                a += phi * phi.transpose();
+                b += phi * y;
+                yy += y * y;
+            }
+            if fixed.is_some() {
+                a[(0, 0)] = 1.0;
+            }
+            // A singular system (no contact, or no rate) gets the smallest-norm answer.
+            let theta = a.svd(true, true).solve(&b, 1e-12).ok()?;
+            let rss = (yy - 2.0 * theta.dot(&b) + theta.dot(&(a * theta))).max(0.0);
+            result = Some((theta, rss));
+            if round == 1 || self.family.has_relaxation() {
+                break;
+            }
+            let mut any = false;
+            for i in 0..g.len() {
+                if g[i] > 0.0 && theta[1] * g[i] + theta[2] * h[i] < 0.0 {
+                    free[i] = true;
+                    any = true;
+                }
+            }
+            if !any {
+                break;
+            }
+        }
+        result.map(|(mut theta, rss)| {
+            if let Some(f0) = fixed {
+                theta[0] = f0;
+            }
+            (theta, rss)
+        })
+    }
+
+    /// RSS at `k`, infinite for an unphysical law: a stiffness that is not positive, or
+    /// a relaxing part that grows instead of relaxing (the wrong axis orientation fits a
+    /// step-and-hold record as well as the right one with such coefficients).
+    fn rss(&self, k: Knobs) -> f64 {
+        match self.solve(k) {
+            Some((theta, rss))
+                if theta[1] > 0.0 && (!self.family.has_relaxation() || theta[2] >= 0.0) =>
+            {
+                rss
+            }
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// The best exponent (golden section within `exponents`) at `k`'s contact point and
+    /// rate: (n, rss).
+    fn best_exponent(&self, k: Knobs, exponents: (f64, f64), iterations: usize) -> (f64, f64) {
+        if !self.family.has_exponent() {
+            return (1.0, self.rss(Knobs { n: 1.0, ..k }));
+        }
+        golden(exponents.0, exponents.1, iterations, |n| {
+            self.rss(Knobs { n, ..k })
+        })
+    }
+
+    /// The best relaxation rate (golden section on ln ν over the record's time scales) at
+    /// `k`'s contact point and exponent: (ν, rss).
+    fn best_rate(&self, k: Knobs, iterations: usize) -> (f64, f64) {
+        if !self.family.has_relaxation() {
+            return (k.nu, self.rss(k));
+        }
+        let (lo, hi) = self.rate_range();
+        let (ln_nu, rss) = golden(lo.ln(), hi.ln(), iterations, |ln_nu| {
+            self.rss(Knobs {
+                nu: ln_nu.exp(),
+                ..k
+            })
+        });
+        (ln_nu.exp(), rss)
+    }
+
+    /// Relaxation rates \[1/s\] the record can show: from a tenth of its inverse length to a
+    /// tenth of its inverse point spacing.
+    fn rate_range(&self) -> (f64, f64) {
+        let n = self.t.len().max(2);
+        let span = (self.t[n - 1] - self.t[0]).max(f64::MIN_POSITIVE);
+        let dt = span / (n - 1) as f64;
+        (0.1 / span, 0.1 / dt)
+    }
+
+    /// The same problem on every `stride`-th point (a coarse view for the grid search).
+    fn thinned(&self, stride: usize) -> Problem<'a> {
+        let pick = |v: &[f64]| v.iter().step_by(stride).copied().collect();
+        Problem {
+            series: self.series,
+            sign: self.sign,
+            family: self.family,
+            offset: self.offset,
+            damping: self.damping,
+            length: self.length,
+            force: self.force,
+            rate: self.rate,
+            u: pick(&self.u),
+            f: pick(&self.f),
+            v: pick(&self.v),
+            t: pick(&self.t),
+        }
+    }
+
+    /// The best fit over contact points from 3 axis ranges behind the shallowest point
+    /// (a record that never leaves contact extrapolates) to the deepest point: a grid over
+    /// the contact point on at most [`COARSE_POINTS`] points, then golden-section
+    /// refinements on all of them around the best cell (relaxation rate, contact point with
+    /// the exponent, twice).
+    pub fn fit(&self) -> Option<LawFit> {
+        let (lo, hi) = min_max(&self.u);
+        let span = hi - lo;
+        let grid = 64;
+        let (a, b) = (lo - 3.0 * span, hi - 0.02 * span);
+        let step = (b - a) / grid as f64;
+        let coarse = self.thinned(self.u.len().div_ceil(COARSE_POINTS).max(1));
+        let (rlo, rhi) = self.rate_range();
+        let mut nu = (rlo * rhi).sqrt();
+        let mut best = (f64::INFINITY, a, 1.0);
+        let grid_pass = |nu: f64, best: &mut (f64, f64, f64)| {
+            for k in 0..=grid {
+                let uc = a + k as f64 * step;
+                let (n, rss) = coarse.best_exponent(Knobs { uc, n: 1.0, nu }, EXPONENT_RANGE, 16);
+                if rss < best.0 {
+                    *best = (rss, uc, n);
+                }
+            }
+        };
+        grid_pass(nu, &mut best);
+        if self.family.has_relaxation() {
+            nu = coarse
+                .best_rate(
+                    Knobs {
+                        uc: best.1,
+                        n: best.2,
+                        nu,
+                    },
+                    20,
+                )
+                .0;
+            best.0 = f64::INFINITY;
+            grid_pass(nu, &mut best);
+        }
+        let (mut uc, mut n) = (best.1, best.2);
+        let rounds = if self.family.has_relaxation() { 2 } else { 1 };
+        for _ in 0..rounds {
+            if self.family.has_relaxation() {
+                nu = self.best_rate(Knobs { uc, n, nu }, 24).0;
+            }
+            let exponents = (
+                (n - 0.5).max(EXPONENT_RANGE.0),
+                (n + 0.5).min(EXPONENT_RANGE.1),
+            );
+            let (u_best, _) = golden(uc - step, uc + step, 30, |uc| {
+                self.best_exponent(Knobs { uc, n, nu }, exponents, 20).1
+            });
+            uc = u_best;
+            n = self.best_exponent(Knobs { uc, n, nu }, exponents, 20).0;
+        }
+        let (theta, rss) = self.solve(Knobs { uc, n, nu })?;
+        if !rss.is_finite() {
+            return None;
+        }
+        let l = self.length;
+        let s = self.force;
+        let r = self.rate;
+        let g_unit = if self.family.has_exponent() {
+            l.powf(n)
+        } else {
+            l
+        };
+        let second = match self.family {
+            LawFamily::KelvinVoigt => theta[2] * s / (l * r),
+            LawFamily::HuntCrossley => theta[2] * s / (g_unit * l * r),
+            LawFamily::Zener | LawFamily::PowerLawRelaxation => theta[2] * s / g_unit,
+        };
+        Some(LawFit {
+            family: self.family,
+            offset_n: theta[0] * s,
+            contact_m: uc * l,
+            exponent: n,
+            stiffness: theta[1] * s / g_unit,
+            second,
+            rate_per_s: if self.family.has_relaxation() {
+                nu
+            } else {
+                0.0
+            },
+            rss: rss * s * s,
+            points: self.u.len(),
+        })
+    }
+
+    /// The oriented series and sign this problem fits.
+    pub fn series(&self) -> (&Series, f64) {
+        (self.series, self.sign)
+    }
+}
+
+/// (min, max) of a slice (±∞ when empty).
+pub fn min_max(x: &[f64]) -> (f64, f64) {
+    x.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        })
+}
+
+/// Golden-section minimisation of `f` on \[a, b\] in `iterations` steps: (argmin, min).
+pub fn golden(a: f64, b: f64, iterations: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (a, b);
+    let mut c = b - r * (b - a);
+    let mut d = a + r * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iterations {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - r * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + r * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(sign: f64, offset: f64) -> Series {
+        // A 1 kHz approach and sine pressing into F = 2e4·δ^1.4·(1 + 0.3·δ̇/0.01).
+        let t: Vec<f64> = (0..8000).map(|i| i as f64 * 1e-3).collect();
+        let depth =
+            |t: f64| -0.5e-3 + 3.0e-3 * (0.5 - 0.5 * (2.0 * std::f64::consts::PI * 0.5 * t).cos());
+        let x: Vec<f64> = t.iter().map(|&t| sign * (2e-3 + depth(t))).collect();
+        let f: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                let d = depth(t);
+                let v = (depth(t + 1e-6) - depth(t - 1e-6)) / 2e-6;
+                offset + laws::unilateral(laws::hunt_crossley(d, v, 2e4, 600.0, 1.4, 1.4))
+            })
+            .collect();
+        Series::new(&t, &x, &f)
+    }
+
+    #[test]
+    fn offset_contact_point_and_law_are_recovered_on_either_axis() {
+        for sign in [1.0, -1.0] {
+            let s = record(sign, 0.7);
+            let fit = Problem::new(&s, sign, LawFamily::HuntCrossley, OffsetTerm::Free)
+                .fit()
+                .unwrap();
+            assert!((fit.offset_n - 0.7).abs() < 1e-3, "{fit:?}");
+            assert!((fit.contact_m - 2e-3).abs() < 2e-6, "{fit:?}");
+            assert!((fit.exponent - 1.4).abs() < 0.01, "{fit:?}");
+            assert!((fit.damping() / 600.0 - 1.0).abs() < 0.05, "{fit:?}");
+            // The wrong orientation fits far worse.
+            let wrong = Problem::new(&s, -sign, LawFamily::HuntCrossley, OffsetTerm::Free)
+                .fit()
+                .unwrap();
+            assert!(
+                wrong.rss > 100.0 * fit.rss.max(1e-12),
+                "{wrong:?} vs {fit:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_relaxing_ramp_and_hold_is_fitted_with_its_mode() {
+        // QLV: F_e = 5e4·δ^1.5, 40 % relaxing at 0.5 /s; ramp to 3 mm in 0.3 s, hold 10 s.
+        let t: Vec<f64> = (0..11_000).map(|i| i as f64 * 1e-3).collect();
+        let depth = |t: f64| -0.2e-3 + 3.2e-3 * (t / 0.3).clamp(0.0, 1.0);
+        let x: Vec<f64> = t.iter().map(|&t| depth(t) + 1e-3).collect();
+        let g: Vec<f64> = t.iter().map(|&t| laws::power_law(depth(t), 1.5)).collect();
+        let z = relaxing(&g, &t, 0.5);
+        let f: Vec<f64> = g
+            .iter()
+            .zip(&z)
+            .map(|(g, z)| 0.2 + 5e4 * (0.6 * g + 0.4 * z))
+            .collect();
+        let s = Series::new(&t, &x, &f);
+        let fit = Problem::new(&s, 1.0, LawFamily::PowerLawRelaxation, OffsetTerm::Free)
+            .fit()
+            .unwrap();
+        assert!((fit.exponent - 1.5).abs() < 0.01, "{fit:?}");
+        assert!((fit.rate_per_s / 0.5 - 1.0).abs() < 0.03, "{fit:?}");
+        assert!(
+            (fit.instantaneous_stiffness() / 5e4 - 1.0).abs() < 0.02,
+            "{fit:?}"
+        );
+        assert!((fit.contact_m - 1e-3).abs() < 3e-6, "{fit:?}");
+        assert!((fit.offset_n - 0.2).abs() < 1e-3, "{fit:?}");
+    }
+
+    #[test]
+    fn golden_finds_a_parabola_minimum() {
+        // A smooth minimum is located to about √ε relative, whatever the iterations.
+        let (x, f) = golden(-3.0, 5.0, 60, |x| (x - 1.25) * (x - 1.25) + 2.0);
+        assert!((x - 1.25).abs() < 1e-7 && (f - 2.0).abs() < 1e-12);
+    }
+}

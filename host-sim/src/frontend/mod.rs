@@ -1,0 +1,797 @@
+//! The any-recording front end: what a record must be told before an estimator can run on
+//! it — which way its position axis points into the material, the force offset and the
+//! contact point — estimated from the WHOLE record, never from the assumption that it
+//! starts out of contact.
+//!
+//! One joint least-squares fit ([`fit`]) of the offset, the contact point and the contact
+//! law (Kelvin-Voigt, eq. 1, or Hunt-Crossley, eq. 3) on each orientation of the position
+//! axis decides them all:
+//! - the **axis** is the orientation on which the law fits (the force rises as the probe
+//!   goes in); `--position-sign` overrides;
+//! - the **offset** is determined by the samples behind the fitted contact point, where the
+//!   force must be flat: wherever they are (an approach, brief or long lift-offs, a pause at
+//!   the start). With fewer than [`MIN_FREE_SAMPLES`] of them, or with a force that follows
+//!   the position there (the record never leaves contact: an offset and a contact point
+//!   trade against each other), the offset is **not identifiable**: it is held at 0 or at
+//!   `--force-offset-n` and flagged;
+//! - the **contact point** is where the law's force starts, from the onsets the record
+//!   shows (or extrapolated along the law when it never leaves contact).
+//!
+//! [`identifiability`] then says which of an estimator's parameters the record determines.
+
+pub mod fit;
+pub mod identifiability;
+pub mod series;
+
+use serde::Serialize;
+
+use self::fit::{min_max, LawFamily, LawFit, OffsetTerm, Problem};
+use self::identifiability::lag1_autocorrelation;
+use self::series::Series;
+
+/// Fewest native samples behind the contact point that can determine the offset.
+pub const MIN_FREE_SAMPLES: usize = 20;
+
+/// What the user fixed on the command line.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Options {
+    /// +1: the position increases into the material; −1: it decreases; `None`: detect.
+    pub position_sign: Option<f64>,
+    /// The force offset \[N\], if known; `None`: estimate it where the record allows.
+    pub force_offset_n: Option<f64>,
+}
+
+/// How the axis orientation was decided.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AxisSource {
+    /// `--position-sign`.
+    Given,
+    /// The contact law fits `rss_ratio` times better on this orientation than on the other.
+    Detected {
+        /// RSS on the other orientation ÷ RSS on this one.
+        rss_ratio: f64,
+    },
+}
+
+/// Where the force offset came from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "source")]
+pub enum OffsetSource {
+    /// The samples behind the contact point.
+    FreeSpace {
+        /// Native samples.
+        samples: usize,
+        /// Contiguous stretches of them.
+        stretches: usize,
+        /// The longest stretch, (start, end) \[s\].
+        longest_s: (f64, f64),
+    },
+    /// `--force-offset-n`.
+    Given,
+    /// Not determined by the record: held (at 0 unless given), and flagged.
+    NotIdentifiable {
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Where the contact point came from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "source")]
+pub enum ContactSource {
+    /// Onsets in the record.
+    Onsets {
+        /// Contacts that start in the record.
+        contacts: usize,
+    },
+    /// The record never shows an onset: extrapolated along the law.
+    Extrapolated,
+}
+
+/// The front end's findings on a record.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrontEnd {
+    /// +1 if the position increases into the material, −1 if it decreases.
+    pub position_sign: f64,
+    /// The law describes the loading curve only (see [`analyse`]): fitted on the free
+    /// space and the loading, and to be estimated during loading.
+    pub loading_only: bool,
+    /// How the orientation was decided.
+    pub axis: AxisSource,
+    /// Force offset \[N\] to subtract.
+    pub force_offset_n: f64,
+    /// Where it came from.
+    pub offset: OffsetSource,
+    /// Contact point on the record's own position axis \[m\].
+    pub contact_position_m: f64,
+    /// Where it came from.
+    pub contact: ContactSource,
+    /// The joint fit (on the oriented axis u = sign·x).
+    #[serde(serialize_with = "serialize_law")]
+    pub law: LawFit,
+    /// The fitted points (block means of the native record).
+    #[serde(skip)]
+    pub series: Series,
+    /// Measurement noise of the fitted points \[N\]: from the free-space samples when there
+    /// are enough of them, else from second differences.
+    pub noise_n: f64,
+    /// Lag-1 autocorrelation of that noise (0 when estimated from second differences).
+    pub noise_rho1: f64,
+    /// What was found and from which samples, in words.
+    pub notes: Vec<String>,
+    /// What the record could not determine, in words.
+    pub warnings: Vec<String>,
+}
+
+/// The whole-record law in JSON: its family and SI coefficients.
+fn serialize_law<S: serde::Serializer>(law: &LawFit, s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut m = s.serialize_map(None)?;
+    m.serialize_entry("family", law.family.describe())?;
+    m.serialize_entry("exponent", &law.exponent)?;
+    m.serialize_entry("stiffness", &law.stiffness)?;
+    if law.family.has_relaxation() {
+        m.serialize_entry("instantaneous_stiffness", &law.instantaneous_stiffness())?;
+        m.serialize_entry("relaxation_rate_per_s", &law.rate_per_s)?;
+    } else {
+        m.serialize_entry("damping", &law.damping())?;
+    }
+    m.serialize_entry("rms_residual_n", &law.rms_n())?;
+    m.end()
+}
+
+impl FrontEnd {
+    /// `true` when the record determined the offset.
+    pub fn offset_identifiable(&self) -> bool {
+        matches!(self.offset, OffsetSource::FreeSpace { .. })
+    }
+
+    /// Penetration δ \[m\] of a raw position \[m\] (negative behind the contact point).
+    pub fn depth_m(&self, position_m: f64) -> f64 {
+        self.position_sign * position_m - self.law.contact_m
+    }
+
+    /// The fitted points' penetrations \[m\] and rates \[m/s\] on the oriented axis.
+    pub fn series_depth_and_rate(&self) -> (Vec<f64>, Vec<f64>) {
+        (
+            self.series
+                .position_m
+                .iter()
+                .map(|x| self.depth_m(*x))
+                .collect(),
+            self.series
+                .rate_m_per_s
+                .iter()
+                .map(|v| self.position_sign * v)
+                .collect(),
+        )
+    }
+}
+
+/// Why a record cannot be set up for estimation.
+#[derive(Debug, thiserror::Error)]
+pub enum FrontEndError {
+    /// Every force value is the same.
+    #[error("no contact: the force never changes (it is {value_n:e} N in all {samples} samples)")]
+    ConstantForce {
+        /// The value \[N\].
+        value_n: f64,
+        /// Samples.
+        samples: usize,
+    },
+    /// Every position value is the same.
+    #[error("the position never changes (it is {value_m:e} m in all {samples} samples): nothing relates force to penetration")]
+    ConstantPosition {
+        /// The value \[m\].
+        value_m: f64,
+        /// Samples.
+        samples: usize,
+    },
+    /// The force changes, but not with the position.
+    #[error(
+        "no contact: the force does not follow the position (the best contact law explains {explained_percent:.1} % \
+         of the force variation, and its force stays within {law_over_noise:.1} noise deviations); the record may \
+         not touch the material"
+    )]
+    NoContact {
+        /// Variance explained by the law beyond the offset \[%\].
+        explained_percent: f64,
+        /// Largest law force ÷ the residual σ.
+        law_over_noise: f64,
+    },
+    /// The fit failed (degenerate record).
+    #[error("the contact law could not be fitted to the record")]
+    FitFailed,
+}
+
+/// Analyses a record: `time_s` \[s\] (increasing), `position_m` \[m\] and `force_n` \[N\]
+/// (raw, offset included, compression positive), any rate, any length ≥ 2.
+///
+/// # Errors
+/// [`FrontEndError`] for a constant force or position, a force that does not follow the
+/// position, or a degenerate fit.
+pub fn analyse(
+    time_s: &[f64],
+    position_m: &[f64],
+    force_n: &[f64],
+    family: LawFamily,
+    options: &Options,
+) -> Result<FrontEnd, FrontEndError> {
+    let samples = force_n.len();
+    let (flo, fhi) = min_max(force_n);
+    if fhi.partial_cmp(&flo) != Some(std::cmp::Ordering::Greater) {
+        return Err(FrontEndError::ConstantForce {
+            value_n: flo,
+            samples,
+        });
+    }
+    let (xlo, xhi) = min_max(position_m);
+    if xhi.partial_cmp(&xlo) != Some(std::cmp::Ordering::Greater) {
+        return Err(FrontEndError::ConstantPosition {
+            value_m: xlo,
+            samples,
+        });
+    }
+    let series = Series::new(time_s, position_m, force_n);
+    let free_offset = OffsetTerm::Free;
+    let signs: Vec<f64> = match options.position_sign {
+        Some(s) => vec![s.signum()],
+        None => vec![1.0, -1.0],
+    };
+    let noise_n = crate::setup::noise_level(force_n) / (series.block as f64).sqrt();
+    let mut fits: Vec<(f64, LawFit)> = signs
+        .iter()
+        .filter_map(|&s| {
+            Problem::new(&series, s, family, free_offset)
+                .fit()
+                .map(|f| (s, f))
+        })
+        .collect();
+    fits.sort_by(|a, b| a.1.rss.total_cmp(&b.1.rss));
+    let Some(&(sign, free_fit)) = fits.first() else {
+        return Err(FrontEndError::FitFailed);
+    };
+    let axis = match (options.position_sign, fits.get(1)) {
+        (Some(_), _) | (None, None) => AxisSource::Given,
+        (None, Some((_, other))) => AxisSource::Detected {
+            rss_ratio: other.rss / free_fit.rss.max(f64::MIN_POSITIVE),
+        },
+    };
+    check_contact(&series, sign, &free_fit, noise_n)?;
+
+    // A memoryless law that misfits the contact as a whole but fits the loading curve
+    // (plastic unloading, creep or relaxation in a hold) is fitted, and estimated, on the
+    // loading curve: its unloading is another law.
+    let mut free_fit = free_fit;
+    let mut series = series;
+    let mut loading_only = None;
+    if !family.has_relaxation() && misfits(&series, sign, &free_fit, noise_n) {
+        let keep = loading_curve(&series, sign);
+        let subset = series.subset(&keep);
+        if let Some(fit) = Problem::new(&subset, sign, family, free_offset)
+            .without_damping()
+            .fit()
+        {
+            if let Some(rms) = loading_consistency(&series, sign, &fit, noise_n) {
+                loading_only = Some(rms);
+                series = subset;
+                free_fit = fit;
+            }
+        }
+    }
+
+    let free = FreeSpace::of(&series, sign, &free_fit, noise_n);
+    let offset_verdict = free.verdict();
+    let (offset_term, offset) = match (options.force_offset_n, &offset_verdict) {
+        (Some(given), _) => (OffsetTerm::Fixed(given), OffsetSource::Given),
+        (None, Ok(source)) => (OffsetTerm::Free, source.clone()),
+        (None, Err(reason)) => (
+            OffsetTerm::Fixed(0.0),
+            OffsetSource::NotIdentifiable {
+                reason: reason.clone(),
+            },
+        ),
+    };
+    let law = match offset_term {
+        OffsetTerm::Free => free_fit,
+        OffsetTerm::Fixed(_) => {
+            let problem = Problem::new(&series, sign, family, offset_term);
+            if loading_only.is_some() {
+                problem.without_damping()
+            } else {
+                problem
+            }
+            .fit()
+            .ok_or(FrontEndError::FitFailed)?
+        }
+    };
+    let final_free = FreeSpace::of(&series, sign, &law, noise_n);
+    let contacts = final_free.onsets;
+    let (noise_n, noise_rho1) = final_free.noise(&series).unwrap_or((noise_n, 0.0));
+    let contact = if contacts > 0 {
+        ContactSource::Onsets { contacts }
+    } else {
+        ContactSource::Extrapolated
+    };
+    let mut front = FrontEnd {
+        position_sign: sign,
+        loading_only: loading_only.is_some(),
+        axis,
+        force_offset_n: law.offset_n,
+        offset,
+        contact_position_m: sign * law.contact_m,
+        contact,
+        law,
+        series,
+        noise_n,
+        noise_rho1,
+        notes: Vec::new(),
+        warnings: Vec::new(),
+    };
+    describe(&mut front, family, &offset_verdict, options);
+    if let Some((loading_rms, other_rms)) = loading_only {
+        front.notes.push(format!(
+            "the law fits the loading curve (residual {loading_rms:.3e} N) but not the rest of the contact \
+             ({other_rms:.3e} N: plastic unloading, creep or relaxation): offset, contact point and law \
+             from the free space and the loading curve, and the estimator updated during loading \
+             (--phase overrides)"
+        ));
+    }
+    Ok(front)
+}
+
+/// Speed \[m/s\] above which a point in contact is loading: the fraction
+/// [`crate::phases::LOADING_SPEED_FRACTION`] of the 99.9th-percentile speed (as
+/// [`crate::phases::speed_threshold`]).
+fn loading_speed(series: &Series) -> f64 {
+    let mut speeds: Vec<f64> = series.rate_m_per_s.iter().map(|v| v.abs()).collect();
+    speeds.sort_by(f64::total_cmp);
+    crate::phases::LOADING_SPEED_FRACTION
+        * speeds
+            .get(((speeds.len().max(1) - 1) as f64 * 0.999) as usize)
+            .copied()
+            .unwrap_or(0.0)
+}
+
+/// The loading curve and the quiet points around it: points moving in faster than the
+/// loading speed, and points that are not unloading and whose force lies in the lowest
+/// tenth of the force range (free space, the start of a contact). Holds at high force and
+/// unloading are left out.
+fn loading_curve(series: &Series, sign: f64) -> Vec<bool> {
+    let v = loading_speed(series);
+    let (lo, hi) = min_max(&series.force_n);
+    let quiet = lo + 0.1 * (hi - lo);
+    series
+        .rate_m_per_s
+        .iter()
+        .zip(&series.force_n)
+        .map(|(r, f)| sign * r > v || (sign * r >= -v && *f < quiet))
+        .collect()
+}
+
+/// `true` when the law misses the contact by more than 5 noise deviations and 2 % of the
+/// force range (RMS over the contact points).
+fn misfits(series: &Series, sign: f64, fit: &LawFit, noise_n: f64) -> bool {
+    let depth: Vec<f64> = series
+        .position_m
+        .iter()
+        .map(|x| sign * x - fit.contact_m)
+        .collect();
+    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
+    let predicted = fit.predict(&depth, &rate, &series.time_s);
+    let (mut ss, mut n) = (0.0, 0usize);
+    for i in 0..depth.len() {
+        if depth[i] > 0.0 {
+            let r =
+                series.force_n[i] - fit.offset_n - estimator_core::laws::unilateral(predicted[i]);
+            ss += r * r;
+            n += 1;
+        }
+    }
+    let (lo, hi) = min_max(&series.force_n);
+    let rms = (ss / n.max(1) as f64).sqrt();
+    n > 0 && rms > 5.0 * noise_n && rms > 0.02 * (hi - lo)
+}
+
+/// `Some((loading RMS, other RMS))` \[N\] when the law's residual over the contact points
+/// that are not loading (holds, unloading: at least a tenth of the contact) is more than
+/// 3 times its residual over the loading points and more than 5 noise deviations.
+fn loading_consistency(
+    series: &Series,
+    sign: f64,
+    fit: &LawFit,
+    noise_n: f64,
+) -> Option<(f64, f64)> {
+    let depth: Vec<f64> = series
+        .position_m
+        .iter()
+        .map(|x| sign * x - fit.contact_m)
+        .collect();
+    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
+    let predicted = fit.predict(&depth, &rate, &series.time_s);
+    let v = loading_speed(series);
+    let (mut loading, mut other) = ((0.0, 0usize), (0.0, 0usize));
+    for i in 0..depth.len() {
+        if depth[i] <= 0.0 {
+            continue;
+        }
+        let r = series.force_n[i] - fit.offset_n - estimator_core::laws::unilateral(predicted[i]);
+        let class = if rate[i] > v {
+            &mut loading
+        } else {
+            &mut other
+        };
+        class.0 += r * r;
+        class.1 += 1;
+    }
+    let rms = |(ss, n): (f64, usize)| (ss / n.max(1) as f64).sqrt();
+    let (l, o) = (rms(loading), rms(other));
+    (loading.1 >= 20 && 10 * other.1 >= loading.1 + other.1 && o > 3.0 * l && o > 5.0 * noise_n)
+        .then_some((l, o))
+}
+
+/// Rejects a record whose force does not follow the position at all: the best law explains
+/// less than 30 % of the force's variance, or its force stays within 5 noise deviations of
+/// a point (`noise_n`, from second differences: the fit's own residual also holds whatever
+/// the law misses, plastic flow or creep, and is no measure of the noise).
+fn check_contact(
+    series: &Series,
+    sign: f64,
+    fit: &LawFit,
+    noise_n: f64,
+) -> Result<(), FrontEndError> {
+    let f = &series.force_n;
+    let mean = f.iter().sum::<f64>() / f.len() as f64;
+    let total: f64 = f.iter().map(|v| (v - mean) * (v - mean)).sum();
+    let explained = 1.0 - fit.rss / total.max(f64::MIN_POSITIVE);
+    let depth: Vec<f64> = series
+        .position_m
+        .iter()
+        .map(|x| sign * x - fit.contact_m)
+        .collect();
+    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
+    let law_max = fit
+        .predict(&depth, &rate, &series.time_s)
+        .iter()
+        .map(|f| f.abs())
+        .fold(0.0, f64::max);
+    let sigma = noise_n.max(f64::MIN_POSITIVE);
+    if explained < 0.3 || law_max < 5.0 * sigma {
+        return Err(FrontEndError::NoContact {
+            explained_percent: 100.0 * explained,
+            law_over_noise: law_max / sigma,
+        });
+    }
+    Ok(())
+}
+
+/// The points behind a fit's contact point.
+struct FreeSpace {
+    /// Native samples behind the contact point.
+    samples: usize,
+    /// Contiguous stretches (start, end) \[s\].
+    stretches: Vec<(f64, f64)>,
+    /// Contacts that start within the record (a stretch followed by contact).
+    onsets: usize,
+    /// Slope of force on oriented position behind the contact point \[N/m\], its standard
+    /// error (effective sample size), and the travel \[m\] it was measured over.
+    slope: Option<(f64, f64, f64)>,
+    block: usize,
+    /// Force range of the record \[N\].
+    force_range_n: f64,
+    /// Which points are free.
+    behind: Vec<bool>,
+}
+
+/// Points that carry no contact force: behind the contact point, or so close to it that
+/// the law's force there is below 3 noise deviations (a probe resting at the surface
+/// before a test is free space, whatever side of the fitted point its noise puts it on).
+fn free_points(series: &Series, sign: f64, fit: &LawFit, noise_n: f64) -> Vec<bool> {
+    let depth: Vec<f64> = series
+        .position_m
+        .iter()
+        .map(|x| sign * x - fit.contact_m)
+        .collect();
+    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
+    let predicted = fit.predict(&depth, &rate, &series.time_s);
+    depth
+        .iter()
+        .zip(&predicted)
+        .map(|(d, f)| *d <= 0.0 || f.abs() < 3.0 * noise_n)
+        .collect()
+}
+
+impl FreeSpace {
+    fn of(series: &Series, sign: f64, fit: &LawFit, noise_n: f64) -> FreeSpace {
+        let behind = free_points(series, sign, fit, noise_n);
+        let mut stretches = Vec::new();
+        let mut onsets = 0;
+        let mut start = None;
+        for (i, &b) in behind.iter().enumerate() {
+            match (b, start) {
+                (true, None) => start = Some(i),
+                (false, Some(s)) => {
+                    stretches.push((series.time_s[s], series.time_s[i - 1]));
+                    onsets += 1;
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(s) = start {
+            stretches.push((series.time_s[s], series.time_s[behind.len() - 1]));
+        }
+        let idx: Vec<usize> = (0..behind.len()).filter(|&i| behind[i]).collect();
+        let slope = (idx.len() >= 3).then(|| {
+            let u: Vec<f64> = idx.iter().map(|&i| sign * series.position_m[i]).collect();
+            let f: Vec<f64> = idx.iter().map(|&i| series.force_n[i]).collect();
+            let n = u.len() as f64;
+            let (mu, mf) = (u.iter().sum::<f64>() / n, f.iter().sum::<f64>() / n);
+            let sxx: f64 = u.iter().map(|x| (x - mu) * (x - mu)).sum();
+            let sxf: f64 = u.iter().zip(&f).map(|(x, y)| (x - mu) * (y - mf)).sum();
+            let b = if sxx > 0.0 { sxf / sxx } else { 0.0 };
+            let r: Vec<f64> = u
+                .iter()
+                .zip(&f)
+                .map(|(x, y)| y - mf - b * (x - mu))
+                .collect();
+            let rho = lag1_autocorrelation(&r).clamp(0.0, 0.999);
+            let n_eff = (n * (1.0 - rho) / (1.0 + rho)).max(3.0);
+            let s2 = r.iter().map(|e| e * e).sum::<f64>() / (n - 2.0).max(1.0);
+            let se = if sxx > 0.0 {
+                (s2 / sxx * n / n_eff).sqrt()
+            } else {
+                f64::INFINITY
+            };
+            let (lo, hi) = min_max(&u);
+            (b, se, hi - lo)
+        });
+        let (flo, fhi) = min_max(&series.force_n);
+        FreeSpace {
+            samples: idx.len() * series.block,
+            stretches,
+            onsets,
+            slope,
+            block: series.block,
+            force_range_n: fhi - flo,
+            behind,
+        }
+    }
+
+    /// Measurement noise (σ \[N\], lag-1 autocorrelation) from the free-space points, each
+    /// stretch about its own mean; `None` with fewer than 50 points.
+    fn noise(&self, series: &Series) -> Option<(f64, f64)> {
+        let behind = &self.behind;
+        let mut deviations: Vec<Vec<f64>> = Vec::new();
+        let mut current: Vec<f64> = Vec::new();
+        for (i, &b) in behind.iter().enumerate() {
+            if b {
+                current.push(series.force_n[i]);
+            } else if !current.is_empty() {
+                deviations.push(std::mem::take(&mut current));
+            }
+        }
+        if !current.is_empty() {
+            deviations.push(current);
+        }
+        let (mut ss, mut lag, mut count) = (0.0, 0.0, 0usize);
+        for stretch in &mut deviations {
+            let m = stretch.iter().sum::<f64>() / stretch.len() as f64;
+            stretch.iter_mut().for_each(|v| *v -= m);
+            ss += stretch.iter().map(|v| v * v).sum::<f64>();
+            lag += stretch.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+            count += stretch.len();
+        }
+        (count >= 50 && ss > 0.0).then(|| ((ss / count as f64).sqrt(), lag / ss))
+    }
+
+    /// The offset source, or why the record does not determine the offset.
+    fn verdict(&self) -> Result<OffsetSource, String> {
+        if self.samples < MIN_FREE_SAMPLES.max(self.block) {
+            return Err(format!(
+                "only {} samples lie behind the contact point (the record never leaves contact), \
+                 so an offset and a contact point trade against each other",
+                self.samples
+            ));
+        }
+        if let Some((b, se, travel)) = self.slope {
+            // A trend that is both significant and material (2 % of the force range over
+            // the free travel): contact force, not a load-cell wobble.
+            if travel > 0.0 && b > 3.0 * se && b * travel > 0.02 * self.force_range_n {
+                return Err(format!(
+                    "behind the fitted contact point the force still follows the position \
+                     ({b:.3e} N/m ± {se:.1e} over {travel:.3e} m): the record never leaves contact"
+                ));
+            }
+        }
+        let longest = self
+            .stretches
+            .iter()
+            .copied()
+            .max_by(|a, b| (a.1 - a.0).total_cmp(&(b.1 - b.0)))
+            .unwrap_or((0.0, 0.0));
+        Ok(OffsetSource::FreeSpace {
+            samples: self.samples,
+            stretches: self.stretches.len(),
+            longest_s: longest,
+        })
+    }
+}
+
+fn describe(
+    front: &mut FrontEnd,
+    family: LawFamily,
+    offset_verdict: &Result<OffsetSource, String>,
+    options: &Options,
+) {
+    let direction = if front.position_sign > 0.0 {
+        "increases"
+    } else {
+        "decreases"
+    };
+    front.notes.push(match front.axis {
+        AxisSource::Given => format!("position axis: the position {direction} into the material (given)"),
+        AxisSource::Detected { rss_ratio } => format!(
+            "position axis: the position {direction} into the material (detected: the contact law fits \
+             {rss_ratio:.3e}× better this way; --position-sign overrides)"
+        ),
+    });
+    if let AxisSource::Detected { rss_ratio } = front.axis {
+        if rss_ratio < 2.0 {
+            front.warnings.push(format!(
+                "the axis orientation is uncertain (the two orientations fit within a factor {rss_ratio:.2}); \
+                 pass --position-sign"
+            ));
+        }
+    }
+    let total = front.series.len() * front.series.block;
+    match (&front.offset, offset_verdict) {
+        (
+            OffsetSource::FreeSpace {
+                samples,
+                stretches,
+                longest_s,
+            },
+            _,
+        ) => front.notes.push(format!(
+            "force offset {:.4e} N from the {samples} samples ({:.1} % of the record) behind the contact \
+             point, in {stretches} stretch(es), the longest {:.3}-{:.3} s",
+            front.force_offset_n,
+            100.0 * *samples as f64 / total as f64,
+            longest_s.0,
+            longest_s.1
+        )),
+        (OffsetSource::Given, verdict) => front.notes.push(format!(
+            "force offset {:.4e} N (given){}",
+            front.force_offset_n,
+            match verdict {
+                Ok(_) => " ; the record's free space alone would have determined it".to_string(),
+                Err(reason) => format!("; the record alone does not determine it: {reason}"),
+            }
+        )),
+        (OffsetSource::NotIdentifiable { reason }, _) => {
+            front.notes.push(format!(
+                "force offset held at {:.4e} N (--force-offset-n sets it)",
+                options.force_offset_n.unwrap_or(0.0)
+            ));
+            front.warnings.push(format!(
+                "the force offset is not identifiable: {reason}; estimated with it held at {:.4e} N",
+                options.force_offset_n.unwrap_or(0.0)
+            ));
+        }
+    }
+    let law = family.describe();
+    front.notes.push(format!(
+        "contact point {:.6e} m on the file's position axis, from the joint least-squares fit of offset, \
+         contact point and the {law} law to all {} samples ({} points of {} samples); {}",
+        front.contact_position_m,
+        total,
+        front.series.len(),
+        front.series.block,
+        match front.contact {
+            ContactSource::Onsets { contacts } =>
+                format!("the record shows {contacts} contact onset(s)"),
+            ContactSource::Extrapolated =>
+                "the record shows no onset: extrapolated along the law".to_string(),
+        }
+    ));
+    if matches!(front.contact, ContactSource::Extrapolated) {
+        front.warnings.push(
+            "the contact point is extrapolated (the record never leaves contact): depths carry its error".into(),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use estimator_core::laws;
+
+    /// A 1 kHz Hunt-Crossley record of `seconds` whose depth follows `depth(t)`.
+    fn record(
+        depth: impl Fn(f64) -> f64,
+        seconds: f64,
+        sign: f64,
+        offset: f64,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..(seconds * 1000.0) as usize)
+            .map(|i| i as f64 * 1e-3)
+            .collect();
+        let x = t
+            .iter()
+            .map(|&t| sign * (1.5e-3 + depth(t)) + 0.02)
+            .collect();
+        let f = t
+            .iter()
+            .map(|&t| {
+                let (d, v) = (depth(t), (depth(t + 1e-6) - depth(t - 1e-6)) / 2e-6);
+                offset + laws::unilateral(laws::hunt_crossley(d, v, 3e4, 900.0, 1.3, 1.3))
+            })
+            .collect();
+        (t, x, f)
+    }
+
+    #[test]
+    fn a_record_that_starts_in_contact_with_brief_lift_offs() {
+        let depth = |t: f64| 1.5e-3 + 1.7e-3 * (2.0 * std::f64::consts::PI * 0.7 * t).cos();
+        for sign in [1.0, -1.0] {
+            let (t, x, f) = record(depth, 10.0, sign, 14.0);
+            let front = analyse(&t, &x, &f, LawFamily::HuntCrossley, &Options::default()).unwrap();
+            assert_eq!(front.position_sign, sign);
+            assert!(
+                (front.force_offset_n - 14.0).abs() < 1e-3,
+                "{:?}",
+                front.notes
+            );
+            assert!((front.contact_position_m - (sign * 1.5e-3 + 0.02)).abs() < 2e-6);
+            assert!(front.offset_identifiable());
+            assert!((front.law.exponent - 1.3).abs() < 0.01);
+        }
+    }
+
+    #[test]
+    fn a_record_that_never_leaves_contact_holds_the_offset_and_says_so() {
+        let depth = |t: f64| 2.5e-3 + 1.0e-3 * (2.0 * std::f64::consts::PI * 0.7 * t).cos();
+        let (t, x, f) = record(depth, 10.0, 1.0, 3.0);
+        let front = analyse(&t, &x, &f, LawFamily::HuntCrossley, &Options::default()).unwrap();
+        assert!(!front.offset_identifiable(), "{:?}", front.offset);
+        assert_eq!(front.force_offset_n, 0.0);
+        assert!(!front.warnings.is_empty());
+        let given = Options {
+            force_offset_n: Some(3.0),
+            ..Options::default()
+        };
+        let front = analyse(&t, &x, &f, LawFamily::HuntCrossley, &given).unwrap();
+        assert_eq!(front.force_offset_n, 3.0);
+        assert!(
+            (front.contact_position_m - (1.5e-3 + 0.02)).abs() < 5e-6,
+            "{}",
+            front.contact_position_m
+        );
+        assert!(matches!(front.contact, ContactSource::Extrapolated));
+    }
+
+    #[test]
+    fn a_constant_force_and_a_force_without_contact_are_errors() {
+        let t: Vec<f64> = (0..1000).map(|i| i as f64 * 1e-3).collect();
+        let x: Vec<f64> = t.iter().map(|t| t * 1e-3).collect();
+        let f = vec![0.25; 1000];
+        let e = analyse(&t, &x, &f, LawFamily::KelvinVoigt, &Options::default()).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("no contact: the force never changes"),
+            "{e}"
+        );
+        // Noise only.
+        let f: Vec<f64> = (0..1000)
+            .map(|i| 0.25 + 1e-3 * ((i * 7919) % 13) as f64)
+            .collect();
+        let e = analyse(&t, &x, &f, LawFamily::KelvinVoigt, &Options::default()).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("no contact: the force does not follow"),
+            "{e}"
+        );
+    }
+}
