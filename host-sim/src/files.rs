@@ -116,6 +116,81 @@ fn front_end_nrmse_percent(front: &FrontEnd) -> f64 {
     crate::simulate::nrmse_percent(&measured, &model).unwrap_or(f64::INFINITY)
 }
 
+/// Largest relative difference between the online estimate and the whole-record fit in
+/// the exponent and the elastic force at the median contact depth (κ for Kelvin-Voigt:
+/// 3 %), and in the damping force at that depth and the 90th-percentile speed (30 %, or 5 %
+/// of the elastic force when the fit's damping is smaller than that).
+const AGREEMENT: (f64, f64, f64) = (0.05, 0.03, 0.30);
+
+/// How the online estimate `online` differs from the front end's whole-record fit beyond
+/// [`AGREEMENT`], in words, for the memoryless models (`None`: it agrees, or there is no
+/// like-for-like comparison).
+fn disagreement(
+    front: &FrontEnd,
+    online: &AnyParameters,
+    held: &BTreeMap<String, f64>,
+) -> Option<String> {
+    let law = &front.law;
+    if law.family.has_relaxation() {
+        return None;
+    }
+    let (depth, rate) = front.series_depth_and_rate();
+    let mut contact: Vec<f64> = depth.iter().copied().filter(|d| *d > 0.0).collect();
+    let mut speeds: Vec<f64> = rate
+        .iter()
+        .zip(&depth)
+        .filter(|(_, d)| **d > 0.0)
+        .map(|(v, _)| v.abs())
+        .collect();
+    if contact.is_empty() {
+        return None;
+    }
+    contact.sort_by(f64::total_cmp);
+    speeds.sort_by(f64::total_cmp);
+    let d = contact[contact.len() / 2];
+    let v = speeds[(speeds.len() - 1) * 9 / 10];
+    let (n, stiffness, lambda, n_fit, tolerance) = match *online {
+        AnyParameters::KelvinVoigt(p) => (
+            1.0,
+            f64::from(p.kappa),
+            f64::from(p.lambda),
+            1.0,
+            AGREEMENT.1,
+        ),
+        AnyParameters::HuntCrossley(p) => (
+            f64::from(p.n),
+            f64::from(p.k),
+            f64::from(p.lambda),
+            law.exponent,
+            AGREEMENT.0,
+        ),
+        _ => return None,
+    };
+    let elastic = |k: f64, n: f64| k * d.powf(n);
+    let (fit_elastic, online_elastic) = (elastic(law.stiffness, n_fit), elastic(stiffness, n));
+    let mut out = Vec::new();
+    if (n - n_fit).abs() > AGREEMENT.0 * n_fit {
+        out.push(format!("n {n:.4} vs {n_fit:.4}"));
+    }
+    if (online_elastic - fit_elastic).abs() > tolerance * fit_elastic.abs() {
+        out.push(format!(
+            "elastic force at {d:.3e} m {online_elastic:.4e} vs {fit_elastic:.4e} N"
+        ));
+    }
+    if !held.contains_key("lambda") {
+        let viscous =
+            |lambda: f64, n: f64| lambda * d.powf(n - if n_fit == 1.0 { 1.0 } else { 0.0 }) * v;
+        let (fit_viscous, online_viscous) = (viscous(law.damping(), n_fit), viscous(lambda, n));
+        let scale = (AGREEMENT.2 * fit_viscous.abs()).max(0.05 * fit_elastic.abs());
+        if (online_viscous - fit_viscous).abs() > scale {
+            out.push(format!(
+                "damping force at {d:.3e} m and {v:.3e} m/s {online_viscous:.4e} vs {fit_viscous:.4e} N"
+            ));
+        }
+    }
+    (!out.is_empty()).then(|| out.join(", "))
+}
+
 /// The front end's law as the starting parameters of `model` (SI), with held parameters at
 /// their held values.
 fn initial_parameters(
@@ -243,6 +318,24 @@ pub fn estimate_file(
             // the held damping is determined.
             let lambda = v.clone();
             let mut others = identifiability::without_held(&front, model, &["lambda"]);
+            // Hunt-Crossley damping λ·δⁿ·δ̇ at one speed v is (λ·v)·δⁿ: when its column is
+            // a combination of the others (a constant-speed stroke, a loading curve), k is
+            // the stiffness at that speed, k + λ·v, not the elastic k alone.
+            let collinear = front.loading_only || lambda.vif >= identifiability::MAX_VIF;
+            if collinear
+                && matches!(
+                    model,
+                    ModelKind::HuntCrossley | ModelKind::HuntCrossleySingleStage
+                )
+            {
+                if let Some(k) = others.iter_mut().find(|o| o.name == "k" && o.identifiable) {
+                    k.identifiable = false;
+                    k.reason = "with the damping held, k is the stiffness at the record's loading \
+                                speed (k + λ·v: elastic and viscous at one speed are one term); a \
+                                second speed separates them"
+                        .into();
+                }
+            }
             others.push(lambda);
             verdicts = others;
         }
@@ -306,9 +399,19 @@ pub fn estimate_file(
         result.phase_speed_threshold_m_per_s
     ));
     let whole_record = front_end_nrmse_percent(&front);
-    let converged = result
+    let mut converged = result
         .nrmse_percent
         .is_some_and(|online| online <= (2.0 * whole_record).max(whole_record + 2.0));
+    if converged {
+        if let Some(difference) = disagreement(&front, &result.parameters, &held) {
+            converged = false;
+            warnings.push(format!(
+                "the online estimate differs from the whole-record fit ({difference}): the \
+                 estimator has not settled on this record (a low sample rate, fast or brief \
+                 motion); the whole-record fit is in the JSON's front_end.law"
+            ));
+        }
+    }
     if !converged {
         warnings.push(format!(
             "the online estimate fits the record much worse than the whole-record fit (NRMSE {} vs {whole_record:.2} %): \

@@ -145,6 +145,9 @@ pub struct Truth {
     pub noise_rho: f64,
     /// Deepest penetration \[m\].
     pub max_depth_m: f64,
+    /// Typical speed of the motion \[m/s\] (the ramps' speed; the material's damping
+    /// carries 5-25 % of the force at it).
+    pub speed_m_s: f64,
 }
 
 impl Truth {
@@ -350,9 +353,25 @@ fn motion(structure: Structure, rng: &mut StdRng, depth: f64, speed: f64, rate_h
     let behind = -0.15 * depth;
     match structure {
         Structure::ApproachSines => {
-            m.push(0.3, Shape::Ramp { to: behind });
-            m.segments[0].from = 2.0 * behind;
-            m.push(20.0, sines(rng, 1.5 * behind, depth, false));
+            // A minimum-jerk approach from behind the surface to where the sines start
+            // (no jump in position: a step would be a glitch, not an approach).
+            let shape = sines(rng, 1.5 * behind, depth, false);
+            let start = Segment {
+                t0: 0.0,
+                duration: 20.0,
+                from: 0.0,
+                shape,
+            }
+            .value(0.0)
+            .0;
+            m.segments.push(Segment {
+                t0: 0.0,
+                duration: 0.0,
+                from: 2.0 * behind,
+                shape: Shape::Hold,
+            });
+            m.min_jerk_to(start, 0.3 + (start - 2.0 * behind).abs() / speed);
+            m.push(20.0, shape);
         }
         Structure::ContactSinesBrief | Structure::Chirp => {
             // Every trough dips 2-4.5 % of the depth behind the surface: lift-offs of
@@ -628,9 +647,344 @@ pub fn generate(structure: Structure, kind: MaterialKind, seed: u64) -> Recordin
             noise_n: sigma,
             noise_rho: rho,
             max_depth_m: max_depth,
+            speed_m_s: speed,
         },
     }
 }
+
+/// Tolerances of [`Score::passes`]: the acceptance (n and the force at 1 mm within
+/// 5 %, Kelvin-Voigt κ within 3 %, damping within 30 % where the record determines it).
+pub const N_TOLERANCE: f64 = 0.05;
+/// Relative tolerance on the elastic force at 1 mm (Hunt-Crossley).
+pub const FORCE_TOLERANCE: f64 = 0.05;
+/// Relative tolerance on κ (Kelvin-Voigt).
+pub const KAPPA_TOLERANCE: f64 = 0.03;
+/// Relative tolerance on λ where the record determines it.
+pub const DAMPING_TOLERANCE: f64 = 0.30;
+/// Largest damping share λ·δⁿ·v / (k·δⁿ) at the typical speed an estimate may report for
+/// a material without damping.
+pub const SPURIOUS_DAMPING_SHARE: f64 = 0.05;
+
+/// How one `estimate` run did on one recording.
+#[derive(Debug, Clone, Serialize)]
+pub struct Score {
+    /// Structure.
+    pub structure: Structure,
+    /// Material.
+    pub material: MaterialKind,
+    /// Estimator.
+    pub model: String,
+    /// Seed.
+    pub seed: u64,
+    /// The force offset was given to the estimate (`--force-offset-n`).
+    pub offset_given: bool,
+    /// The run's error, if it failed.
+    pub error: Option<String>,
+    /// Relative error of n (Hunt-Crossley; `None` for Kelvin-Voigt).
+    pub n_error: Option<f64>,
+    /// Relative error of the elastic force at 1 mm (κ·1 mm for Kelvin-Voigt).
+    pub force_error: Option<f64>,
+    /// Relative error of λ (truth > 0), or the damping share at the typical speed (truth 0).
+    pub damping_error: Option<f64>,
+    /// Per-parameter identifiability the run reported.
+    pub identifiable: std::collections::BTreeMap<String, bool>,
+    /// The front end determined the offset from the record (or it was given).
+    pub offset_determined: bool,
+    /// The axis orientation the front end chose matches the truth.
+    pub axis_right: bool,
+    /// The run reported its online estimate settled (no warning that it differs from the
+    /// whole-record fit or fits much worse).
+    pub converged: bool,
+}
+
+impl Score {
+    /// Whether the parameter was reported identifiable (absent = yes).
+    pub fn is_identifiable(&self, name: &str) -> bool {
+        self.identifiable.get(name).copied().unwrap_or(true)
+    }
+
+    /// The acceptance test: the run succeeded with the right axis, and every parameter is
+    /// either within tolerance or flagged as not determined by the record. A record that
+    /// never leaves contact cannot determine the offset unless given: then k (κ) and n
+    /// must be flagged.
+    pub fn failures(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(e) = &self.error {
+            out.push(format!("error: {e}"));
+            return out;
+        }
+        if !self.axis_right {
+            out.push("wrong axis orientation".into());
+        }
+        let stiffness = if self.material == MaterialKind::KelvinVoigt {
+            ("kappa", KAPPA_TOLERANCE)
+        } else {
+            ("k", FORCE_TOLERANCE)
+        };
+        let check = |out: &mut Vec<String>, name: &str, err: Option<f64>, tol: f64| {
+            if let Some(e) = err {
+                if self.is_identifiable(name) && e.abs() > tol {
+                    out.push(format!(
+                        "{name} error {:+.1} % (reported identifiable)",
+                        100.0 * e
+                    ));
+                }
+            }
+        };
+        if !self.offset_determined {
+            for name in [stiffness.0, "n"] {
+                if self.identifiable.contains_key(name) && self.is_identifiable(name) {
+                    out.push(format!(
+                        "offset not determined but {name} reported identifiable"
+                    ));
+                }
+            }
+        }
+        check(&mut out, stiffness.0, self.force_error, stiffness.1);
+        check(&mut out, "n", self.n_error, N_TOLERANCE);
+        let damping_tolerance = if self.material == MaterialKind::PowerLaw {
+            SPURIOUS_DAMPING_SHARE
+        } else {
+            DAMPING_TOLERANCE
+        };
+        check(&mut out, "lambda", self.damping_error, damping_tolerance);
+        out
+    }
+
+    /// Passes [`Score::failures`].
+    pub fn passes(&self) -> bool {
+        self.failures().is_empty()
+    }
+
+    /// Fails silently: outside tolerance on a parameter reported identifiable, without the
+    /// warning that the online estimate has not settled. (A wrong axis or a failed run is
+    /// always silent-or-loud as it is: counted here.)
+    pub fn fails_silently(&self) -> bool {
+        !self.passes() && (self.converged || self.error.is_some() || !self.axis_right)
+    }
+}
+
+/// Runs `model` on `recording` through [`crate::files::estimate_file`] (written as CSV
+/// into `dir`, read back as a user's file would be), with the true offset given if
+/// `give_offset`, and scores the result against the truth.
+pub fn score(
+    recording: &Recording,
+    model: estimator_core::ModelKind,
+    seed: u64,
+    dir: &std::path::Path,
+    give_offset: bool,
+) -> Score {
+    use estimator_core::{AnyParameters, ModelKind};
+    let t = &recording.truth;
+    let mut out = Score {
+        structure: t.structure,
+        material: t.material,
+        model: model.name().to_string(),
+        seed,
+        offset_given: give_offset,
+        error: None,
+        n_error: None,
+        force_error: None,
+        damping_error: None,
+        identifiable: Default::default(),
+        offset_determined: give_offset,
+        axis_right: false,
+        converged: false,
+    };
+    let path = dir.join(format!(
+        "{}-{:?}-{}-{seed}.csv",
+        t.structure.name(),
+        t.material,
+        model.name()
+    ));
+    if let Err(e) = std::fs::write(&path, recording.to_csv()) {
+        out.error = Some(format!("{}: {e}", path.display()));
+        return out;
+    }
+    let overrides = crate::setup::Overrides {
+        front_end: crate::frontend::Options {
+            position_sign: None,
+            force_offset_n: give_offset.then_some(t.offset_n),
+        },
+        ..Default::default()
+    };
+    let run = crate::files::estimate_file(model, &path, "csv", &overrides, None);
+    let _ = std::fs::remove_file(&path);
+    let run = match run {
+        Ok(run) => run,
+        Err(e) => {
+            out.error = Some(format!("{e:#}"));
+            return out;
+        }
+    };
+    out.identifiable = run.identifiable.clone();
+    out.converged = run.converged;
+    out.axis_right = run.front_end.position_sign == t.axis_sign;
+    if !give_offset {
+        out.offset_determined = !matches!(
+            run.front_end.offset,
+            crate::frontend::OffsetSource::NotIdentifiable { .. }
+        );
+    }
+    let rel = |est: f64, truth: f64| (est - truth) / truth;
+    let depth_ref: f64 = 1.0e-3;
+    match (run.result.parameters, model) {
+        (AnyParameters::KelvinVoigt(p), _) => {
+            out.force_error = Some(rel(f64::from(p.kappa), t.stiffness));
+            out.damping_error = Some(if t.lambda > 0.0 {
+                rel(f64::from(p.lambda), t.lambda)
+            } else {
+                f64::from(p.lambda) * t.speed_m_s / t.stiffness
+            });
+        }
+        (AnyParameters::HuntCrossley(p), _) => {
+            let (k, lambda, n) = (f64::from(p.k), f64::from(p.lambda), f64::from(p.n));
+            out.n_error = Some(rel(n, t.n));
+            out.force_error = Some(rel(k * depth_ref.powf(n), t.force_at_1mm_n()));
+            out.damping_error = Some(if t.lambda > 0.0 {
+                rel(lambda, t.lambda)
+            } else {
+                lambda * t.speed_m_s / k
+            });
+        }
+        (
+            AnyParameters::Hammerstein { gamma2, .. },
+            ModelKind::Hammerstein1 | ModelKind::Hammerstein2,
+        ) => {
+            out.n_error = Some(rel(f64::from(gamma2), t.n));
+        }
+        _ => {}
+    }
+    out
+}
+
+/// One cell of the structure × estimator table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Case {
+    /// Structure.
+    pub structure: Structure,
+    /// Material.
+    pub material: MaterialKind,
+    /// Estimator.
+    pub model: estimator_core::ModelKind,
+    /// `--force-offset-n` given with the true offset.
+    pub give_offset: bool,
+}
+
+/// The cases the tests assert: every structure with a Kelvin-Voigt material (its
+/// estimator), a Hunt-Crossley and a pure power-law material (both Hunt-Crossley
+/// estimators); a record that never leaves contact once without and once with the offset
+/// given.
+pub fn cases() -> Vec<Case> {
+    use estimator_core::ModelKind;
+    let mut out = Vec::new();
+    for structure in Structure::ALL {
+        let offsets: &[bool] = if structure == Structure::NeverLeaves {
+            &[false, true]
+        } else {
+            &[false]
+        };
+        for &give_offset in offsets {
+            for (material, model) in [
+                (MaterialKind::KelvinVoigt, ModelKind::KelvinVoigt),
+                (MaterialKind::HuntCrossley, ModelKind::HuntCrossley),
+                (
+                    MaterialKind::HuntCrossley,
+                    ModelKind::HuntCrossleySingleStage,
+                ),
+                (MaterialKind::PowerLaw, ModelKind::HuntCrossley),
+                (MaterialKind::PowerLaw, ModelKind::HuntCrossleySingleStage),
+            ] {
+                out.push(Case {
+                    structure,
+                    material,
+                    model,
+                    give_offset,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Runs `case` for every seed (in parallel) and returns the scores.
+pub fn run_case(case: Case, seeds: &[u64], dir: &std::path::Path) -> Vec<Score> {
+    use rayon::prelude::*;
+    seeds
+        .par_iter()
+        .map(|&seed| {
+            let r = generate(case.structure, case.material, seed);
+            score(&r, case.model, seed, dir, case.give_offset)
+        })
+        .collect()
+}
+
+/// A Markdown table row summarising `scores` of one case: passes, median and worst
+/// |error| of n, F(1 mm) (κ) and λ over the runs that reported them identifiable, and how
+/// often each was flagged not identifiable.
+pub fn table_row(case: Case, scores: &[Score]) -> String {
+    let stat = |name: &str, pick: &dyn Fn(&Score) -> Option<f64>| {
+        let mut v: Vec<f64> = scores
+            .iter()
+            .filter(|s| s.error.is_none() && s.is_identifiable(name))
+            .filter_map(|s| pick(s).map(f64::abs))
+            .collect();
+        let flagged = scores
+            .iter()
+            .filter(|s| s.error.is_none() && !s.is_identifiable(name))
+            .count();
+        v.sort_by(f64::total_cmp);
+        let cell = if v.is_empty() {
+            "–".to_string()
+        } else {
+            format!(
+                "{:.1} / {:.1}",
+                100.0 * v[v.len() / 2],
+                100.0 * v[v.len() - 1]
+            )
+        };
+        if flagged > 0 {
+            format!("{cell} ({flagged} flagged)")
+        } else {
+            cell
+        }
+    };
+    let stiffness = if case.material == MaterialKind::KelvinVoigt {
+        "kappa"
+    } else {
+        "k"
+    };
+    let n = if case.material == MaterialKind::KelvinVoigt {
+        "–".to_string()
+    } else {
+        stat("n", &|s| s.n_error)
+    };
+    let passes = scores.iter().filter(|s| s.passes()).count();
+    let warned = scores
+        .iter()
+        .filter(|s| !s.passes() && !s.fails_silently())
+        .count();
+    let silent = scores.iter().filter(|s| s.fails_silently()).count();
+    format!(
+        "| {}{} | {:?} | {} | {}/{} | {warned} | {silent} | {} | {} | {} |",
+        case.structure.name(),
+        if case.give_offset {
+            " (offset given)"
+        } else {
+            ""
+        },
+        case.material,
+        case.model.name(),
+        passes,
+        scores.len(),
+        n,
+        stat(stiffness, &|s| s.force_error),
+        stat("lambda", &|s| s.damping_error),
+    )
+}
+
+/// Header of [`table_row`]'s table.
+pub const TABLE_HEADER: &str = "| structure | material | estimator | pass | warned | silent | n err % (median / worst) | F(1 mm) or κ err % | λ err % (share if none) |\n|---|---|---|---|---|---|---|---|---|";
 
 #[cfg(test)]
 mod tests {

@@ -197,6 +197,12 @@ pub const EXPONENT_RANGE: (f64, f64) = (0.3, 4.0);
 /// Most points of the coarse grid search over the contact point.
 pub const COARSE_POINTS: usize = 1500;
 
+/// Cells of the grid over the contact point (over 4 axis ranges: 64 per range).
+pub const CONTACT_GRID: usize = 256;
+
+/// Local minima of the grid refined on all points.
+pub const REFINED_MINIMA: usize = 3;
+
 /// The nonlinear parameters of one evaluation: scaled contact point, exponent, rate.
 #[derive(Debug, Clone, Copy)]
 struct Knobs {
@@ -273,14 +279,33 @@ impl<'a> Problem<'a> {
         (g, h)
     }
 
-    /// Least squares at `knobs` in scaled units: (θ = \[F0, a, b\], rss). For the memoryless
-    /// laws, points whose law is negative in the first solution are refitted as free.
+    /// Least squares at `knobs` in scaled units with both coefficients constrained to be
+    /// non-negative (a stiffness and a damping or relaxing part cannot be negative): the
+    /// unconstrained solution if it is physical, else the better of the fits with one
+    /// column dropped. On a constant-speed ramp g and g·v are nearly collinear and the
+    /// unconstrained split is decided by noise; an infinite penalty there would make the
+    /// RSS landscape of the exponent and contact point searches jump.
     fn solve(&self, k: Knobs) -> Option<(Vector3<f64>, f64)> {
+        let (g, h) = self.columns(k);
+        let full = self.solve_columns(&g, &h, [true, true])?;
+        if full.0[1] >= 0.0 && full.0[2] >= 0.0 {
+            return Some(full);
+        }
+        [[true, false], [false, true]]
+            .into_iter()
+            .filter_map(|mask| self.solve_columns(&g, &h, mask))
+            .filter(|(theta, _)| theta[1] >= 0.0 && theta[2] >= 0.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// Least squares on the columns of `mask` (g, h), in scaled units: (θ = \[F0, a, b\],
+    /// rss). For the memoryless laws, points whose law is negative in the first solution
+    /// are refitted as free.
+    fn solve_columns(&self, g: &[f64], h: &[f64], mask: [bool; 2]) -> Option<(Vector3<f64>, f64)> {
         let fixed = match self.offset {
             OffsetTerm::Free => None,
             OffsetTerm::Fixed(f0) => Some(f0 / self.force),
         };
-        let (g, h) = self.columns(k);
         let mut free = vec![false; g.len()];
         let mut result = None;
         for round in 0..2 {
@@ -289,7 +314,14 @@ impl<'a> Problem<'a> {
             let mut yy = 0.0;
             for i in 0..g.len() {
                 let y = self.f[i] - fixed.unwrap_or(0.0);
-                let (gi, hi) = if free[i] { (0.0, 0.0) } else { (g[i], h[i]) };
+                let (gi, hi) = if free[i] {
+                    (0.0, 0.0)
+                } else {
+                    (
+                        if mask[0] { g[i] } else { 0.0 },
+                        if mask[1] { h[i] } else { 0.0 },
+                    )
+                };
                 let phi = Vector3::new(if fixed.is_some() { 0.0 } else { 1.0 }, gi, hi);
                 a += phi * phi.transpose();
                 b += phi * y;
@@ -324,16 +356,12 @@ impl<'a> Problem<'a> {
         })
     }
 
-    /// RSS at `k`, infinite for an unphysical law: a stiffness that is not positive, or
-    /// a relaxing part that grows instead of relaxing (the wrong axis orientation fits a
-    /// step-and-hold record as well as the right one with such coefficients).
+    /// RSS at `k`, infinite when no stiffness is positive. Coefficients are non-negative
+    /// ([`Problem::solve`]): a relaxing part that grows instead of relaxing would let the
+    /// wrong axis orientation fit a step-and-hold record as well as the right one.
     fn rss(&self, k: Knobs) -> f64 {
         match self.solve(k) {
-            Some((theta, rss))
-                if theta[1] > 0.0 && (!self.family.has_relaxation() || theta[2] >= 0.0) =>
-            {
-                rss
-            }
+            Some((theta, rss)) if theta[1] > 0.0 => rss,
             _ => f64::INFINITY,
         }
     }
@@ -395,30 +423,35 @@ impl<'a> Problem<'a> {
 
     /// The best fit over contact points from 3 axis ranges behind the shallowest point
     /// (a record that never leaves contact extrapolates) to the deepest point: a grid over
-    /// the contact point on at most [`COARSE_POINTS`] points, then golden-section
-    /// refinements on all of them around the best cell (relaxation rate, contact point with
-    /// the exponent, twice).
+    /// the contact point ([`CONTACT_GRID`] cells) on at most [`COARSE_POINTS`] points, then
+    /// golden-section refinements on all of them around the [`REFINED_MINIMA`] best local
+    /// minima of the grid (relaxation rate, contact point with the exponent, twice).
     pub fn fit(&self) -> Option<LawFit> {
         let (lo, hi) = min_max(&self.u);
         let span = hi - lo;
-        let grid = 64;
         let (a, b) = (lo - 3.0 * span, hi - 0.02 * span);
-        let step = (b - a) / grid as f64;
+        let step = (b - a) / CONTACT_GRID as f64;
         let coarse = self.thinned(self.u.len().div_ceil(COARSE_POINTS).max(1));
         let (rlo, rhi) = self.rate_range();
         let mut nu = (rlo * rhi).sqrt();
-        let mut best = (f64::INFINITY, a, 1.0);
-        let grid_pass = |nu: f64, best: &mut (f64, f64, f64)| {
-            for k in 0..=grid {
-                let uc = a + k as f64 * step;
-                let (n, rss) = coarse.best_exponent(Knobs { uc, n: 1.0, nu }, EXPONENT_RANGE, 16);
-                if rss < best.0 {
-                    *best = (rss, uc, n);
-                }
-            }
+        // rss and n at every grid point.
+        let grid_pass = |nu: f64| -> Vec<(f64, f64, f64)> {
+            (0..=CONTACT_GRID)
+                .map(|k| {
+                    let uc = a + k as f64 * step;
+                    let (n, rss) =
+                        coarse.best_exponent(Knobs { uc, n: 1.0, nu }, EXPONENT_RANGE, 16);
+                    (rss, uc, n)
+                })
+                .collect()
         };
-        grid_pass(nu, &mut best);
+        let mut cells = grid_pass(nu);
         if self.family.has_relaxation() {
+            let best = cells
+                .iter()
+                .copied()
+                .min_by(|x, y| x.0.total_cmp(&y.0))
+                .unwrap_or((f64::INFINITY, a, 1.0));
             nu = coarse
                 .best_rate(
                     Knobs {
@@ -429,25 +462,47 @@ impl<'a> Problem<'a> {
                     20,
                 )
                 .0;
-            best.0 = f64::INFINITY;
-            grid_pass(nu, &mut best);
+            cells = grid_pass(nu);
         }
-        let (mut uc, mut n) = (best.1, best.2);
-        let rounds = if self.family.has_relaxation() { 2 } else { 1 };
-        for _ in 0..rounds {
-            if self.family.has_relaxation() {
-                nu = self.best_rate(Knobs { uc, n, nu }, 24).0;
+        // Refine the best few local minima of the grid on all points: a steep onset makes
+        // the coarse RSS jagged, and a shifted contact point with a larger exponent can
+        // beat the right cell's neighbours on the grid but not the right cell refined.
+        let mut minima: Vec<(f64, f64, f64)> = (0..cells.len())
+            .filter(|&k| {
+                let r = cells[k].0;
+                r.is_finite()
+                    && (k == 0 || r <= cells[k - 1].0)
+                    && (k + 1 == cells.len() || r <= cells[k + 1].0)
+            })
+            .map(|k| cells[k])
+            .collect();
+        minima.sort_by(|x, y| x.0.total_cmp(&y.0));
+        minima.truncate(REFINED_MINIMA);
+        let mut best: Option<(f64, f64, f64, f64)> = None;
+        for (_, uc0, n0) in minima {
+            let (mut uc, mut n, mut nu_k) = (uc0, n0, nu);
+            let rounds = if self.family.has_relaxation() { 2 } else { 1 };
+            let mut rss = f64::INFINITY;
+            for _ in 0..rounds {
+                if self.family.has_relaxation() {
+                    nu_k = self.best_rate(Knobs { uc, n, nu: nu_k }, 24).0;
+                }
+                let exponents = (
+                    (n - 0.5).max(EXPONENT_RANGE.0),
+                    (n + 0.5).min(EXPONENT_RANGE.1),
+                );
+                let (u_best, _) = golden(uc - step, uc + step, 30, |uc| {
+                    self.best_exponent(Knobs { uc, n, nu: nu_k }, exponents, 20)
+                        .1
+                });
+                uc = u_best;
+                (n, rss) = self.best_exponent(Knobs { uc, n, nu: nu_k }, exponents, 20);
             }
-            let exponents = (
-                (n - 0.5).max(EXPONENT_RANGE.0),
-                (n + 0.5).min(EXPONENT_RANGE.1),
-            );
-            let (u_best, _) = golden(uc - step, uc + step, 30, |uc| {
-                self.best_exponent(Knobs { uc, n, nu }, exponents, 20).1
-            });
-            uc = u_best;
-            n = self.best_exponent(Knobs { uc, n, nu }, exponents, 20).0;
+            if best.is_none_or(|b| rss < b.0) {
+                best = Some((rss, uc, n, nu_k));
+            }
         }
+        let (_, uc, n, nu) = best?;
         let (theta, rss) = self.solve(Knobs { uc, n, nu })?;
         if !rss.is_finite() {
             return None;

@@ -480,6 +480,11 @@ struct FreeSpace {
     block: usize,
     /// Force range of the record \[N\].
     force_range_n: f64,
+    /// How far behind the contact point the free points reach \[m\].
+    reach_m: f64,
+    /// For a linear law (κ, no exponent): the depth at which contact would carry 5 noise
+    /// deviations \[m\]; 0 for the power laws.
+    visible_m: f64,
     /// Which points are free.
     behind: Vec<bool>,
 }
@@ -555,6 +560,15 @@ impl FreeSpace {
             slope,
             block: series.block,
             force_range_n: fhi - flo,
+            reach_m: idx
+                .iter()
+                .map(|&i| fit.contact_m - sign * series.position_m[i])
+                .fold(0.0, f64::max),
+            visible_m: if fit.family.has_exponent() {
+                0.0
+            } else {
+                5.0 * noise_n / fit.instantaneous_stiffness().max(f64::MIN_POSITIVE)
+            },
             behind,
         }
     }
@@ -593,6 +607,17 @@ impl FreeSpace {
                 "only {} samples lie behind the contact point (the record never leaves contact), \
                  so an offset and a contact point trade against each other",
                 self.samples
+            ));
+        }
+        if self.reach_m < self.visible_m {
+            // A linear law's offset and contact point trade exactly against each other:
+            // only points far enough behind the contact point that contact there would
+            // show tell free space from a light touch.
+            return Err(format!(
+                "the points behind the fitted contact point reach only {:.3e} m behind it, \
+                 where contact would carry less than 5 noise deviations ({:.3e} m): a linear \
+                 law's offset and contact point trade against each other",
+                self.reach_m, self.visible_m
             ));
         }
         if let Some((b, se, travel)) = self.slope {

@@ -10,7 +10,7 @@ pub const MAX_POINTS: usize = 6000;
 pub const RATE_HALF_WINDOWS_S: [f64; 7] = [4.0e-3, 10.0e-3, 25.0e-3, 50.0e-3, 0.1, 0.25, 0.5];
 
 /// Largest rate noise the chosen half-width may leave, as a fraction of the record's
-/// 99th-percentile speed.
+/// 99.9th-percentile speed.
 pub const MAX_RATE_NOISE: f64 = 0.02;
 
 /// Block means of a record.
@@ -82,7 +82,8 @@ impl Series {
 
 /// The rate of `position` by the shortest symmetric difference of [`RATE_HALF_WINDOWS_S`]
 /// whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
-/// [`MAX_RATE_NOISE`] of the 99th-percentile speed it gives.
+/// [`MAX_RATE_NOISE`] of the 99.9th-percentile speed it gives (not the 99th: the ramps of
+/// a ramp-and-hold are 1-2 % of its samples).
 pub fn rate_estimate(time_s: &[f64], position: &[f64]) -> Vec<f64> {
     let sigma_x = crate::setup::noise_level(position);
     let mut last = Vec::new();
@@ -90,11 +91,11 @@ pub fn rate_estimate(time_s: &[f64], position: &[f64]) -> Vec<f64> {
         let rate = symmetric_rate(time_s, position, h);
         let mut speeds: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
         speeds.sort_by(f64::total_cmp);
-        let p99 = speeds
-            .get(((speeds.len().max(1) - 1) as f64 * 0.99) as usize)
+        let fast = speeds
+            .get(((speeds.len().max(1) - 1) as f64 * 0.999) as usize)
             .copied()
             .unwrap_or(0.0);
-        if sigma_x / (std::f64::consts::SQRT_2 * h) <= MAX_RATE_NOISE * p99 {
+        if sigma_x / (std::f64::consts::SQRT_2 * h) <= MAX_RATE_NOISE * fast {
             return rate;
         }
         last = rate;
