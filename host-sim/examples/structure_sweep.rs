@@ -47,29 +47,7 @@ fn main() {
         }
         let scores = run_case(case, &seeds, dir.path());
         println!("{}", table_row(case, &scores));
-        for s in &scores {
-            let f = s.failures();
-            if !f.is_empty() {
-                failures.push(format!(
-                    "{}{} {:?} {} seed {}{}: {}",
-                    if s.fails_silently() {
-                        "SILENT "
-                    } else {
-                        "warned "
-                    },
-                    case.structure.name(),
-                    case.material,
-                    s.model,
-                    s.seed,
-                    if case.give_offset {
-                        " (offset given)"
-                    } else {
-                        ""
-                    },
-                    f.join("; ")
-                ));
-            }
-        }
+        failures.extend(scores.iter().filter(|s| !s.passes()).map(|s| s.describe()));
     }
     println!("\n{} failing runs", failures.len());
     for f in failures {

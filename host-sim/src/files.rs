@@ -102,8 +102,7 @@ impl FileRun {
 /// NRMSE \[%\] of the front end's whole-record fit over its in-contact points
 /// (range-normalised, as the run's).
 fn front_end_nrmse_percent(front: &FrontEnd) -> f64 {
-    let (depth, rate) = front.series_depth_and_rate();
-    let predicted = front.law.predict(&depth, &rate, &front.series.time_s);
+    let (depth, _, predicted) = front.law_along();
     let (measured, model): (Vec<f64>, Vec<f64>) = (0..depth.len())
         .filter(|&i| depth[i] > 0.0)
         .map(|i| {

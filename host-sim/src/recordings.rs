@@ -256,6 +256,16 @@ impl Motion {
         });
     }
 
+    /// Starts the motion at `position` (a zero-length hold the next segments continue from).
+    fn start_at(&mut self, position: f64) {
+        self.segments.push(Segment {
+            t0: 0.0,
+            duration: 0.0,
+            from: position,
+            shape: Shape::Hold,
+        });
+    }
+
     fn hold(&mut self, duration: f64) {
         self.push(duration, Shape::Hold);
     }
@@ -364,12 +374,7 @@ fn motion(structure: Structure, rng: &mut StdRng, depth: f64, speed: f64, rate_h
             }
             .value(0.0)
             .0;
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: 2.0 * behind,
-                shape: Shape::Hold,
-            });
+            m.start_at(2.0 * behind);
             m.min_jerk_to(start, 0.3 + (start - 2.0 * behind).abs() / speed);
             m.push(20.0, shape);
         }
@@ -384,31 +389,16 @@ fn motion(structure: Structure, rng: &mut StdRng, depth: f64, speed: f64, rate_h
                     f0: 0.2,
                     f1: 4.0,
                 };
-                m.segments.push(Segment {
-                    t0: 0.0,
-                    duration: 20.0,
-                    from: 0.0,
-                    shape,
-                });
+                m.push(20.0, shape);
                 // Start in contact: the chirp begins at its mean.
             } else {
                 let shape = sines(rng, lo, depth, true);
-                m.segments.push(Segment {
-                    t0: 0.0,
-                    duration: 20.0,
-                    from: 0.0,
-                    shape,
-                });
+                m.push(20.0, shape);
             }
         }
         Structure::ContactSinesLong => {
             let start = rng.random_range(0.4..0.8) * depth;
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: start,
-                shape: Shape::Hold,
-            });
+            m.start_at(start);
             for _ in 0..6 {
                 m.min_jerk_to(
                     depth * rng.random_range(0.7..1.0),
@@ -427,42 +417,22 @@ fn motion(structure: Structure, rng: &mut StdRng, depth: f64, speed: f64, rate_h
         }
         Structure::NeverLeaves => {
             let shape = sines(rng, 0.3 * depth, depth, true);
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 20.0,
-                from: 0.0,
-                shape,
-            });
+            m.push(20.0, shape);
         }
         Structure::RampLoad => {
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: 2.0 * behind,
-                shape: Shape::Hold,
-            });
+            m.start_at(2.0 * behind);
             m.hold(0.3);
             m.ramp_to(depth, speed);
         }
         Structure::RampLoadUnload => {
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: 2.0 * behind,
-                shape: Shape::Hold,
-            });
+            m.start_at(2.0 * behind);
             m.hold(0.3);
             m.ramp_to(depth, speed);
             m.ramp_to(2.0 * behind, speed);
             m.hold(0.3);
         }
         Structure::RampSpeeds => {
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: 2.0 * behind,
-                shape: Shape::Hold,
-            });
+            m.start_at(2.0 * behind);
             for factor in [0.3, 1.0, 3.0] {
                 m.hold(0.3);
                 m.ramp_to(depth, factor * speed);
@@ -471,12 +441,7 @@ fn motion(structure: Structure, rng: &mut StdRng, depth: f64, speed: f64, rate_h
             m.hold(0.3);
         }
         Structure::RampHold => {
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: 2.0 * behind,
-                shape: Shape::Hold,
-            });
+            m.start_at(2.0 * behind);
             m.hold(0.5);
             // The paper's polyurethane: a fast ramp (here 10-40 depths per second, and at
             // least 30 samples).
@@ -490,12 +455,7 @@ fn motion(structure: Structure, rng: &mut StdRng, depth: f64, speed: f64, rate_h
             m.hold(0.5);
         }
         Structure::Taps => {
-            m.segments.push(Segment {
-                t0: 0.0,
-                duration: 0.0,
-                from: 2.0 * behind,
-                shape: Shape::Hold,
-            });
+            m.start_at(2.0 * behind);
             for _ in 0..10 {
                 m.hold(rng.random_range(0.2..0.8));
                 m.min_jerk_to(
@@ -754,6 +714,29 @@ impl Score {
     /// Passes [`Score::failures`].
     pub fn passes(&self) -> bool {
         self.failures().is_empty()
+    }
+
+    /// One line for a run that does not pass: `SILENT` or `warned`, the case, the seed and
+    /// [`Score::failures`].
+    pub fn describe(&self) -> String {
+        format!(
+            "{} {}{} {:?} {} seed {}: {}",
+            if self.fails_silently() {
+                "SILENT"
+            } else {
+                "warned"
+            },
+            self.structure.name(),
+            if self.offset_given {
+                " (offset given)"
+            } else {
+                ""
+            },
+            self.material,
+            self.model,
+            self.seed,
+            self.failures().join("; ")
+        )
     }
 
     /// Fails silently: outside tolerance on a parameter reported identifiable, without the

@@ -1000,30 +1000,14 @@ pub fn fit(
         let at = |u: f64| at(u, &from, false);
         // Golden section around the best grid point: some knobs (delay, plastic set)
         // have an RSS with kinks at sample boundaries that a gradient method stalls on.
-        let g = 0.5 * (5f64.sqrt() - 1.0);
         let step = if effort.grid > 0 {
             1.0 / effort.grid as f64
         } else {
             effort.bracket
         };
-        let (mut a, mut b) = ((best.0 - step).max(0.0), (best.0 + step).min(1.0));
-        let (mut c1, mut c2) = (b - g * (b - a), a + g * (b - a));
-        let (mut f1, mut f2) = (at(c1), at(c2));
-        for _ in 0..effort.golden {
-            if f1.0 < f2.0 {
-                b = c2;
-                c2 = c1;
-                f2 = f1;
-                c1 = b - g * (b - a);
-                f1 = at(c1);
-            } else {
-                a = c1;
-                c1 = c2;
-                f1 = f2;
-                c2 = a + g * (b - a);
-                f2 = at(c2);
-            }
-        }
+        let (a, b) = ((best.0 - step).max(0.0), (best.0 + step).min(1.0));
+        let [(_, f1), (_, f2)] =
+            crate::frontend::fit::golden_section(a, b, effort.golden, at, |r| r.0);
         for (rss, trial) in [f1, f2] {
             if rss < best.1 {
                 best = (0.0, rss, trial);

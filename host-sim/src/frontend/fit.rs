@@ -552,14 +552,32 @@ pub fn min_max(x: &[f64]) -> (f64, f64) {
 }
 
 /// Golden-section minimisation of `f` on \[a, b\] in `iterations` steps: (argmin, min).
-pub fn golden(a: f64, b: f64, iterations: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+pub fn golden(a: f64, b: f64, iterations: usize, f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let [(c, fc), (d, fd)] = golden_section(a, b, iterations, f, |v| *v);
+    if fc < fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
+/// Golden-section search of \[a, b\] in `iterations` steps for the minimum of `cost(f(x))`,
+/// where `f` also returns what the caller keeps of each evaluation: the two final interior
+/// points (lower, upper) with their evaluations.
+pub fn golden_section<T>(
+    a: f64,
+    b: f64,
+    iterations: usize,
+    mut f: impl FnMut(f64) -> T,
+    cost: impl Fn(&T) -> f64,
+) -> [(f64, T); 2] {
     let r = 0.5 * (5f64.sqrt() - 1.0);
     let (mut a, mut b) = (a, b);
     let mut c = b - r * (b - a);
     let mut d = a + r * (b - a);
     let (mut fc, mut fd) = (f(c), f(d));
     for _ in 0..iterations {
-        if fc < fd {
+        if cost(&fc) < cost(&fd) {
             b = d;
             d = c;
             fd = fc;
@@ -573,11 +591,7 @@ pub fn golden(a: f64, b: f64, iterations: usize, mut f: impl FnMut(f64) -> f64) 
             fd = f(d);
         }
     }
-    if fc < fd {
-        (c, fc)
-    } else {
-        (d, fd)
-    }
+    [(c, fc), (d, fd)]
 }
 
 #[cfg(test)]

@@ -230,9 +230,8 @@ fn whole_record(
     held: &[&str],
 ) -> Vec<Verdict> {
     let law = &front.law;
-    let (depth, rate) = front.series_depth_and_rate();
+    let (depth, rate, predicted) = front.law_along();
     let t = &front.series.time_s;
-    let predicted = law.predict(&depth, &rate, t);
     let contact: Vec<usize> = (0..depth.len())
         .filter(|&i| depth[i] > 0.0 && predicted[i] > 0.0)
         .filter(|&i| window.is_none_or(|(a, b)| t[i] >= a && t[i] < b))

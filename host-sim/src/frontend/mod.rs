@@ -154,18 +154,13 @@ impl FrontEnd {
 
     /// The fitted points' penetrations \[m\] and rates \[m/s\] on the oriented axis.
     pub fn series_depth_and_rate(&self) -> (Vec<f64>, Vec<f64>) {
-        (
-            self.series
-                .position_m
-                .iter()
-                .map(|x| self.depth_m(*x))
-                .collect(),
-            self.series
-                .rate_m_per_s
-                .iter()
-                .map(|v| self.position_sign * v)
-                .collect(),
-        )
+        depth_and_rate(&self.series, self.position_sign, self.law.contact_m)
+    }
+
+    /// The fitted points' penetrations \[m\], rates \[m/s\] and the law's force \[N\]
+    /// (offset excluded, unclamped).
+    pub fn law_along(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        law_along(&self.series, self.position_sign, &self.law)
     }
 }
 
@@ -370,16 +365,32 @@ fn loading_curve(series: &Series, sign: f64) -> Vec<bool> {
         .collect()
 }
 
+/// Along `series` on the axis `sign`: the penetration below `fit`'s contact point \[m\], the
+/// rate into the material \[m/s\] and the law's force there \[N\] (offset excluded,
+/// unclamped), one entry per point.
+fn law_along(series: &Series, sign: f64, fit: &LawFit) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let (depth, rate) = depth_and_rate(series, sign, fit.contact_m);
+    let force = fit.predict(&depth, &rate, &series.time_s);
+    (depth, rate, force)
+}
+
+/// Along `series` on the axis `sign`: the penetration below the contact point `contact_m`
+/// (on that axis) \[m\] and the rate into the material \[m/s\].
+fn depth_and_rate(series: &Series, sign: f64, contact_m: f64) -> (Vec<f64>, Vec<f64>) {
+    (
+        series
+            .position_m
+            .iter()
+            .map(|x| sign * x - contact_m)
+            .collect(),
+        series.rate_m_per_s.iter().map(|v| sign * v).collect(),
+    )
+}
+
 /// `true` when the law misses the contact by more than 5 noise deviations and 2 % of the
 /// force range (RMS over the contact points).
 fn misfits(series: &Series, sign: f64, fit: &LawFit, noise_n: f64) -> bool {
-    let depth: Vec<f64> = series
-        .position_m
-        .iter()
-        .map(|x| sign * x - fit.contact_m)
-        .collect();
-    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
-    let predicted = fit.predict(&depth, &rate, &series.time_s);
+    let (depth, _, predicted) = law_along(series, sign, fit);
     let (mut ss, mut n) = (0.0, 0usize);
     for i in 0..depth.len() {
         if depth[i] > 0.0 {
@@ -403,13 +414,7 @@ fn loading_consistency(
     fit: &LawFit,
     noise_n: f64,
 ) -> Option<(f64, f64)> {
-    let depth: Vec<f64> = series
-        .position_m
-        .iter()
-        .map(|x| sign * x - fit.contact_m)
-        .collect();
-    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
-    let predicted = fit.predict(&depth, &rate, &series.time_s);
+    let (depth, rate, predicted) = law_along(series, sign, fit);
     let v = loading_speed(series);
     let (mut loading, mut other) = ((0.0, 0usize), (0.0, 0usize));
     for i in 0..depth.len() {
@@ -445,14 +450,8 @@ fn check_contact(
     let mean = f.iter().sum::<f64>() / f.len() as f64;
     let total: f64 = f.iter().map(|v| (v - mean) * (v - mean)).sum();
     let explained = 1.0 - fit.rss / total.max(f64::MIN_POSITIVE);
-    let depth: Vec<f64> = series
-        .position_m
-        .iter()
-        .map(|x| sign * x - fit.contact_m)
-        .collect();
-    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
-    let law_max = fit
-        .predict(&depth, &rate, &series.time_s)
+    let law_max = law_along(series, sign, fit)
+        .2
         .iter()
         .map(|f| f.abs())
         .fold(0.0, f64::max);
@@ -493,13 +492,7 @@ struct FreeSpace {
 /// the law's force there is below 3 noise deviations (a probe resting at the surface
 /// before a test is free space, whatever side of the fitted point its noise puts it on).
 fn free_points(series: &Series, sign: f64, fit: &LawFit, noise_n: f64) -> Vec<bool> {
-    let depth: Vec<f64> = series
-        .position_m
-        .iter()
-        .map(|x| sign * x - fit.contact_m)
-        .collect();
-    let rate: Vec<f64> = series.rate_m_per_s.iter().map(|v| sign * v).collect();
-    let predicted = fit.predict(&depth, &rate, &series.time_s);
+    let (depth, _, predicted) = law_along(series, sign, fit);
     depth
         .iter()
         .zip(&predicted)
