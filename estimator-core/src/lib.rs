@@ -37,6 +37,8 @@ pub mod laws;
 pub mod models;
 pub mod monitor;
 pub mod pipeline;
+#[cfg(feature = "protocol")]
+pub mod protocol;
 pub mod rls;
 pub mod sensors;
 pub mod status;

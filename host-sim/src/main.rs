@@ -119,7 +119,7 @@ enum Command {
         until: Option<Phase>,
     },
     /// Decode a captured telemetry stream (the firmware's UART, or QEMU's serial file)
-    /// into one JSON object per frame on stdout.
+    /// into one JSON object per message (telemetry, boot report, reply) on stdout.
     Telemetry {
         /// Captured bytes.
         file: PathBuf,
@@ -298,18 +298,20 @@ fn diagnose_one(
 fn decode_telemetry(path: &Path) -> Result<()> {
     let bytes = std::fs::read(path).with_context(|| format!("{}: reading", path.display()))?;
     let decoded = host_sim::telemetry::decode(&bytes);
-    for frame in &decoded.frames {
-        println!("{}", serde_json::to_string(frame)?);
+    for message in &decoded.messages {
+        println!("{}", serde_json::to_string(message)?);
     }
     for (offset, error) in &decoded.errors {
         eprintln!("{}: byte {offset}: {error}", path.display());
     }
     eprintln!(
-        "{}: {} frames, {} missing by sequence number, {} undecodable",
+        "{}: {} messages ({} telemetry frames), {} telemetry frames missing by sample index, {} undecodable{}",
         path.display(),
+        decoded.messages.len(),
         decoded.frames.len(),
         decoded.missing,
-        decoded.errors.len()
+        decoded.errors.len(),
+        if decoded.truncated { ", ends mid-frame" } else { "" }
     );
     if decoded.frames.is_empty() {
         bail!("{}: no telemetry frame decoded", path.display());

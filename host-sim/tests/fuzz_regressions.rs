@@ -64,15 +64,16 @@ fn the_telemetry_decoder_does_not_panic_on_the_corpus() {
     for file in corpus() {
         let bytes = std::fs::read(&file).expect("readable file");
         let d = telemetry::decode(&bytes);
-        // Every 0x00 ends one frame, decoded or reported; a tail without one is reported.
-        let zeros = bytes.iter().filter(|&&b| b == 0).count();
-        let tail = usize::from(bytes.last().is_some_and(|&b| b != 0));
+        // Every 0x00 that ends a non-empty frame yields one message or one error; a tail
+        // without a 0x00 is reported as truncated.
+        let (frames, tail) = telemetry::frame_counts(&bytes);
         assert_eq!(
-            d.frames.len() + d.errors.len(),
-            zeros + tail,
+            d.messages.len() + d.errors.len(),
+            frames,
             "{}",
             file.display()
         );
+        assert_eq!(d.truncated, tail, "{}", file.display());
     }
 }
 
