@@ -1,13 +1,17 @@
 //! The plant the QEMU smoke run senses instead of the ADC and the encoder: the probe of
 //! the paper's rig pressing the thin plastic layer (Hunt-Crossley, the paper's values in
 //! SI: k = 4.58e4 N/m^1.2, λ = 2.79e5 N·s/m^2.2, n = 1.2), 20 mN of load-cell noise from a
-//! xorshift generator, the board's 12-bit ADC and a 16-bit encoder counter. The motion is
+//! xorshift generator, the boards' oversampled ADC code (16 × 12 bit, read through the
+//! default amplifier calibration) and a 16-bit encoder counter. The motion is
 //! the host scenario `plastic-hc`'s: free space, then 1-3 Hz pressing to 1 mm that leaves
 //! the surface by 50 µm at every cycle.
 
 use estimator_core::models::HuntCrossley;
 
-use crate::board::{RawCodes, ENCODER_COUNTS_PER_M, LOAD_CELL, SAMPLE_TIME_S};
+use crate::board::{
+    RawCodes, DEFAULT_ENCODER_COUNTS_PER_M, DEFAULT_LOAD_CELL, OVERSAMPLED_FULL_SCALE_CODE,
+    SAMPLE_TIME_S,
+};
 
 /// The simulated material.
 pub const TRUTH: HuntCrossley = HuntCrossley {
@@ -84,9 +88,11 @@ impl SimPlant {
         let rate = (depth - self.previous_depth_m) / SAMPLE_TIME_S;
         self.previous_depth_m = depth;
         let force = TRUTH.force_n(depth, rate) + NOISE_N * self.noise.normal();
-        let counts = libm::floorf((SURFACE_M + depth) * ENCODER_COUNTS_PER_M) as i32;
+        let counts = libm::floorf((SURFACE_M + depth) * DEFAULT_ENCODER_COUNTS_PER_M) as i32;
+        let code = DEFAULT_LOAD_CELL.code(force);
         RawCodes {
-            adc: LOAD_CELL.code(force),
+            adc: Some(code),
+            adc_at_rail: code == 0 || code >= OVERSAMPLED_FULL_SCALE_CODE,
             encoder: counts as u16,
         }
     }
