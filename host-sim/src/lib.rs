@@ -16,6 +16,7 @@ pub mod recordings;
 pub mod report;
 pub mod runner;
 pub mod scenarios;
+pub mod serial;
 pub mod setup;
 pub mod simulate;
 pub mod telemetry;

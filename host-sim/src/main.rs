@@ -124,6 +124,9 @@ enum Command {
         /// Captured bytes.
         file: PathBuf,
     },
+    /// Live telemetry from the firmware's UART (CSV or JSON lines, drops counted), and
+    /// operator commands (--send 'model kelvin-voigt', 'tare', …).
+    Serial(host_sim::serial::SerialArgs),
     /// The main job: all scenarios and the shipped real files, with a summary.
     Demo {
         /// Output folder.
@@ -166,6 +169,7 @@ fn main() -> ExitCode {
         Some(Command::Demo { out, data }) => demo(&out, &data),
         Some(Command::Simulate { scenario, out }) => simulate(&scenario, &out).map(|_| ()),
         Some(Command::Telemetry { file }) => decode_telemetry(&file),
+        Some(Command::Serial(args)) => host_sim::serial::cli(&args),
         Some(Command::Diagnose {
             file,
             format,
