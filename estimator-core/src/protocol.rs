@@ -160,9 +160,7 @@ pub fn decode<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError> {
         return Err(FrameError::Crc);
     }
     match checked.split_first() {
-        Some((&PROTOCOL_VERSION, body)) => {
-            postcard::from_bytes(body).map_err(|_| FrameError::Body)
-        }
+        Some((&PROTOCOL_VERSION, body)) => postcard::from_bytes(body).map_err(|_| FrameError::Body),
         Some((&v, _)) => Err(FrameError::Version(v)),
         None => Err(FrameError::TooShort),
     }
@@ -479,7 +477,9 @@ impl Configurator {
                         return Ok((Ack::CalibrationPointRecorded { load_cell_v }, effects));
                     }
                     CalibrationPoint::Second => {
-                        let first = self.first_point.ok_or(CommandError::CalibrationIncomplete)?;
+                        let first = self
+                            .first_point
+                            .ok_or(CommandError::CalibrationIncomplete)?;
                         next.load_cell = two_point(next.load_cell, first, (load_cell_v, force_n))?;
                         effects.conversion_changed = true;
                     }
@@ -806,9 +806,15 @@ mod tests {
     #[test]
     fn reader_splits_frames_skips_empty_ones_and_refuses_overlong() {
         let mut buffer = [0u8; MAX_FRAME_BYTES];
-        let a = encode(&Request { id: 1, command: Command::Tare }, &mut buffer)
-            .unwrap()
-            .to_vec();
+        let a = encode(
+            &Request {
+                id: 1,
+                command: Command::Tare,
+            },
+            &mut buffer,
+        )
+        .unwrap()
+        .to_vec();
         let mut stream = vec![0, 0];
         stream.extend_from_slice(&a);
         stream.extend(std::iter::repeat_n(7u8, MAX_FRAME_BYTES + 10));
@@ -820,9 +826,21 @@ mod tests {
             .filter_map(|&b| reader.push_decode(b))
             .collect();
         assert_eq!(results.len(), 3, "{results:?}");
-        assert_eq!(results[0], Ok(Request { id: 1, command: Command::Tare }));
+        assert_eq!(
+            results[0],
+            Ok(Request {
+                id: 1,
+                command: Command::Tare
+            })
+        );
         assert_eq!(results[1], Err(FrameError::TooLong));
-        assert_eq!(results[2], Ok(Request { id: 1, command: Command::Tare }));
+        assert_eq!(
+            results[2],
+            Ok(Request {
+                id: 1,
+                command: Command::Tare
+            })
+        );
     }
 
     /// A port that takes 0 to 3 bytes per call, as a UART whose data register is full
@@ -863,7 +881,10 @@ mod tests {
             }
         }
         while !queue.pump(&mut port) {}
-        assert!(queue.frames_dropped() > 0, "the test must overfill the queue");
+        assert!(
+            queue.frames_dropped() > 0,
+            "the test must overfill the queue"
+        );
         assert_eq!(queued.len() as u32 + queue.frames_dropped(), pushed);
         let mut reader = FrameReader::new();
         let decoded: Vec<u32> = port

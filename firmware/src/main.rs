@@ -124,8 +124,7 @@ mod app {
     };
     use estimator_core::telemetry::TelemetryFrame;
     use estimator_core::{
-        AnyEstimator, AnyParameters, Estimator, EstimatorSettings, Pipeline, PipelineConfig,
-        Status,
+        AnyEstimator, AnyParameters, Estimator, EstimatorSettings, Pipeline, PipelineConfig, Status,
     };
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
@@ -312,7 +311,9 @@ mod app {
             .conversion
             .lock(|c| (c.raw_sample(codes), c.period_samples()));
         let t1 = cycles::now();
-        let (out, model) = shared.pipeline.lock(|p| (p.step(&raw), p.estimator().kind()));
+        let (out, model) = shared
+            .pipeline
+            .lock(|p| (p.step(&raw), p.estimator().kind()));
         let t2 = cycles::now();
         *l.sample = l.sample.wrapping_add(1);
         *l.mismatch |= out.status.contains(Status::MODEL_MISMATCH);
@@ -497,7 +498,9 @@ mod app {
                                 cx.shared.pipeline.lock(|p| p.request_tare());
                             }
                             if let Some(enabled) = effects.estimation {
-                                cx.shared.pipeline.lock(|p| p.set_estimation_enabled(enabled));
+                                cx.shared
+                                    .pipeline
+                                    .lock(|p| p.set_estimation_enabled(enabled));
                             }
                             if effects.conversion_changed {
                                 cx.shared.conversion.lock(|c| c.apply(&settings));
@@ -507,7 +510,9 @@ mod app {
                                     .watchdog
                                     .lock(|w| w.set_timeout_ms(board::WATCHDOG_FLASH_MS));
                                 let saved = cx.local.store.save(&settings);
-                                cx.shared.watchdog.lock(|w| w.set_timeout_ms(board::WATCHDOG_MS));
+                                cx.shared
+                                    .watchdog
+                                    .lock(|w| w.set_timeout_ms(board::WATCHDOG_MS));
                                 if !saved {
                                     result = Err(CommandError::NotPersisted);
                                 }

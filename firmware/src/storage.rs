@@ -20,7 +20,7 @@ use core::task::{Context, Poll, Waker};
 use embedded_storage::nor_flash as blocking;
 use embedded_storage_async::nor_flash as nonblocking;
 use estimator_core::protocol::{decode, encode, DeviceSettings, MAX_FRAME_BYTES};
-use sequential_storage::cache::Cache;
+use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
 
 /// Key of the settings record.
@@ -65,15 +65,22 @@ impl<F: blocking::MultiwriteNorFlash> nonblocking::MultiwriteNorFlash for Blocki
 /// Polls `future` once: `None` if it was not ready (never, with [`Blocking`] flash).
 fn run<T>(future: impl Future<Output = T>) -> Option<T> {
     let mut future = pin!(future);
-    match future.as_mut().poll(&mut Context::from_waker(Waker::noop())) {
+    match future
+        .as_mut()
+        .poll(&mut Context::from_waker(Waker::noop()))
+    {
         Poll::Ready(value) => Some(value),
         Poll::Pending => None,
     }
 }
 
+/// The map over `F`, without a RAM cache (the settings are read once and written
+/// rarely: scanning two pages is fast enough).
+type Map<F> = MapStorage<u8, Blocking<F>, Cache<Uncached, Uncached, Uncached, u8>>;
+
 /// The settings record in `range` of a flash `F`.
 pub struct SettingsStore<F: blocking::NorFlash> {
-    map: Option<MapStorage<u8, Blocking<F>, Cache<sequential_storage::cache::Uncached, sequential_storage::cache::Uncached, sequential_storage::cache::Uncached, u8>>>,
+    map: Option<Map<F>>,
 }
 
 impl<F: blocking::NorFlash + blocking::MultiwriteNorFlash> SettingsStore<F> {
@@ -91,8 +98,7 @@ impl<F: blocking::NorFlash + blocking::MultiwriteNorFlash> SettingsStore<F> {
         let map = self.map.as_mut()?;
         let mut buffer = [0u8; BUFFER_BYTES];
         let mut record = [0u8; MAX_FRAME_BYTES];
-        let stored = run(map.fetch_item::<&[u8]>(&mut buffer, &SETTINGS_KEY))?
-            .ok()??;
+        let stored = run(map.fetch_item::<&[u8]>(&mut buffer, &SETTINGS_KEY))?.ok()??;
         let record = record.get_mut(..stored.len())?;
         record.copy_from_slice(stored);
         let settings: DeviceSettings = decode(record).ok()?;

@@ -88,7 +88,10 @@ pub fn parse_command(text: &str) -> Result<Command> {
         ["config"] => Command::ReportConfig,
         ["model", name] => Command::SelectModel(ModelKind::from_name(name).with_context(|| {
             let names: Vec<_> = ModelKind::ALL.iter().map(|k| k.name()).collect();
-            format!("`{text}`: unknown model, expected one of {}", names.join(", "))
+            format!(
+                "`{text}`: unknown model, expected one of {}",
+                names.join(", ")
+            )
         })?),
         ["forgetting", "default"] => Command::SetForgetting(None),
         ["forgetting", "fixed", _] => Command::SetForgetting(Some(Forgetting::Fixed {
@@ -165,10 +168,13 @@ pub fn write_event(
     log: &mut dyn Write,
 ) -> Result<()> {
     match (format, event) {
-        (Format::Json, Event::Message {
-            message,
-            missing_before,
-        }) => writeln!(
+        (
+            Format::Json,
+            Event::Message {
+                message,
+                missing_before,
+            },
+        ) => writeln!(
             out,
             "{}",
             serde_json::json!({ "message": message, "missing_before": missing_before })
@@ -178,10 +184,13 @@ pub fn write_event(
             "{}",
             serde_json::json!({ "undecodable": { "offset": offset, "error": error.to_string() } })
         )?,
-        (Format::Csv, Event::Message {
-            message: DeviceMessage::Telemetry(t),
-            missing_before,
-        }) => writeln!(out, "{}", csv_row(t, *missing_before))?,
+        (
+            Format::Csv,
+            Event::Message {
+                message: DeviceMessage::Telemetry(t),
+                missing_before,
+            },
+        ) => writeln!(out, "{}", csv_row(t, *missing_before))?,
         (Format::Csv, Event::Message { message, .. }) => {
             writeln!(log, "{}", serde_json::to_string(message)?)?
         }
@@ -250,7 +259,11 @@ pub fn run<P: Read + Write + ?Sized>(
         }
         if let Some((id, since)) = waiting {
             if since.elapsed() > reply_timeout {
-                writeln!(log, "no reply to #{id} within {:.1} s", args.reply_timeout_s)?;
+                writeln!(
+                    log,
+                    "no reply to #{id} within {:.1} s",
+                    args.reply_timeout_s
+                )?;
                 session.replies.push(None);
                 waiting = None;
             }
@@ -329,7 +342,10 @@ pub fn cli(args: &SerialArgs) -> Result<()> {
         .filter(|r| !matches!(r, Some(Reply { result: Ok(_), .. })))
         .count();
     if refused > 0 {
-        bail!("{refused} of {} commands refused or unanswered", args.send.len());
+        bail!(
+            "{refused} of {} commands refused or unanswered",
+            args.send.len()
+        );
     }
     Ok(())
 }
@@ -402,7 +418,11 @@ mod tests {
             .unwrap(),
         );
         let row = csv_row(&decoded.frames[2], 2);
-        assert_eq!(row.split(',').count(), CSV_HEADER.split(',').count(), "{row}");
+        assert_eq!(
+            row.split(',').count(),
+            CSV_HEADER.split(',').count(),
+            "{row}"
+        );
         assert!(row.starts_with("100,hunt-crossley,InContact,"), "{row}");
         assert!(row.contains(",2,k="), "{row}");
         let reply = DeviceMessage::Reply(Reply {

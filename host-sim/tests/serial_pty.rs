@@ -36,7 +36,8 @@ fn settings() -> DeviceSettings {
 
 fn send(port: &mut dyn Write, message: &DeviceMessage) {
     let mut buffer = [0u8; MAX_FRAME_BYTES];
-    port.write_all(encode(message, &mut buffer).unwrap()).unwrap();
+    port.write_all(encode(message, &mut buffer).unwrap())
+        .unwrap();
 }
 
 /// The device: telemetry every 5 ms (sample index +20; index 100 is never sent), a reply

@@ -225,7 +225,9 @@ impl Master {
 
     fn send(&mut self, id: u16, command: Cmd) {
         let mut frame = [0u8; MAX_FRAME_BYTES];
-        let bytes = encode(&Request { id, command }, &mut frame).unwrap().to_vec();
+        let bytes = encode(&Request { id, command }, &mut frame)
+            .unwrap()
+            .to_vec();
         self.send_bytes(&bytes);
     }
 
@@ -237,7 +239,10 @@ impl Master {
                 message
             }
             Ok(Event::Error { offset, error }) => panic!("undecodable frame at {offset}: {error}"),
-            Err(e) => panic!("no message from the firmware: {e}; seen {:?}", self.seen.last()),
+            Err(e) => panic!(
+                "no message from the firmware: {e}; seen {:?}",
+                self.seen.last()
+            ),
         }
     }
 
@@ -290,7 +295,10 @@ fn commands_are_answered_and_change_the_telemetry(elf: &Path) {
     let _ = std::fs::remove_file(&socket);
     let qemu = Command::new(workspace().join("firmware/qemu-run.sh"))
         .arg(elf)
-        .env("QEMU_SERIAL", format!("unix:{},server=on,wait=on", socket.display()))
+        .env(
+            "QEMU_SERIAL",
+            format!("unix:{},server=on,wait=on", socket.display()),
+        )
         .env("QEMU_TIMEOUT", "120")
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -310,9 +318,15 @@ fn commands_are_answered_and_change_the_telemetry(elf: &Path) {
     let (r, _) = m.reply(0);
     assert!(matches!(r.result, Err(CommandError::Malformed(_))), "{r:?}");
     let mut frame = [0u8; MAX_FRAME_BYTES];
-    let mut corrupted = encode(&Request { id: 9, command: Cmd::Tare }, &mut frame)
-        .unwrap()
-        .to_vec();
+    let mut corrupted = encode(
+        &Request {
+            id: 9,
+            command: Cmd::Tare,
+        },
+        &mut frame,
+    )
+    .unwrap()
+    .to_vec();
     corrupted[2] ^= 0x10;
     m.send_bytes(&corrupted);
     let (r, _) = m.reply(0);
@@ -323,7 +337,11 @@ fn commands_are_answered_and_change_the_telemetry(elf: &Path) {
     let (r, _) = m.reply(1);
     let defaults = settings_of(&r);
     assert_eq!(
-        (defaults.model, defaults.telemetry_rate_hz, defaults.forgetting),
+        (
+            defaults.model,
+            defaults.telemetry_rate_hz,
+            defaults.forgetting
+        ),
         (ModelKind::HuntCrossley, 50, None)
     );
 
@@ -389,7 +407,8 @@ fn commands_are_answered_and_change_the_telemetry(elf: &Path) {
         assert_eq!(f.parameters, initial, "{f:?}");
     }
     assert!(
-        held.iter().any(|f| f.status.contains(Status::ESTIMATION_PAUSED)),
+        held.iter()
+            .any(|f| f.status.contains(Status::ESTIMATION_PAUSED)),
         "{held:?}"
     );
     m.send(10, Cmd::SetEstimation { enabled: true });
@@ -404,7 +423,10 @@ fn commands_are_answered_and_change_the_telemetry(elf: &Path) {
     m.send(11, Cmd::ReportConfig);
     let (r, _) = m.reply(11);
     let now = settings_of(&r);
-    assert_eq!((now.model, now.telemetry_rate_hz), (ModelKind::HuntCrossley, 100));
+    assert_eq!(
+        (now.model, now.telemetry_rate_hz),
+        (ModelKind::HuntCrossley, 100)
+    );
 
     // Let the run finish: every frame until the end decodes, none lost, then the verdict.
     let mut tail = 0;
@@ -420,7 +442,10 @@ fn commands_are_answered_and_change_the_telemetry(elf: &Path) {
     let out = qemu.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     println!("{stderr}\n{tail} messages after the last command");
-    assert!(stderr.contains("deadlines missed: 0; periods lost: 0"), "{stderr}");
+    assert!(
+        stderr.contains("deadlines missed: 0; periods lost: 0"),
+        "{stderr}"
+    );
     let last = m.seen.iter().rev().find_map(|msg| match msg {
         DeviceMessage::Telemetry(t) => Some(*t),
         _ => None,

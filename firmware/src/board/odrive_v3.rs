@@ -28,10 +28,10 @@
 //! GPIO5; PA0-PA3 are the same from v3.3 on. The PA2 analog input and UART4 on PA0/PA1
 //! hold for v3.3 to v3.6.
 
-use stm32f4xx_hal::{pac, prelude::*, serial::Serial};
+use stm32f4xx_hal::{pac, prelude::*, qei::Qei, serial::Serial};
 
-use super::stm32::{self, Board, Flash, Sampler, StatusLed, Watchdog};
 use super::stm32::AdcBuffer;
+use super::stm32::{self, Board, Flash, Sampler, StatusLed, Watchdog};
 
 /// Name in the boot report.
 pub const BOARD_NAME: &str = "odrive-v3";
@@ -57,14 +57,22 @@ pub fn setup(dp: pac::Peripherals, adc_buffer: &'static mut AdcBuffer) -> Board 
         dp.DMA2,
         &load_cell,
         adc_buffer,
-        dp.TIM3,
         // PB4 leaves reset as the JTAG NJTRST pin (AF0, pull-up); SWD does not need it.
-        (gpiob.pb4.into_floating_input(), gpiob.pb5),
+        Qei::new(
+            dp.TIM3,
+            (gpiob.pb4.into_floating_input(), gpiob.pb5),
+            &mut rcc,
+        ),
         ENCODER_FILTER,
         &mut rcc,
     );
-    let serial = Serial::new(dp.UART4, (gpioa.pa0, gpioa.pa1), stm32::uart_config(), &mut rcc)
-        .unwrap_or_else(|_| super::unreachable_config());
+    let serial = Serial::new(
+        dp.UART4,
+        (gpioa.pa0, gpioa.pa1),
+        stm32::uart_config(),
+        &mut rcc,
+    )
+    .unwrap_or_else(|_| super::unreachable_config());
     let (uart_tx, uart_rx) = stm32::uart(serial);
     let (timer, clock) = stm32::timers(dp.TIM2, dp.TIM5, &mut rcc);
     Board {

@@ -200,9 +200,16 @@ pub fn setup(dp: pac::Peripherals, flash_ram: &'static mut Statics) -> Board {
     dp.RCC.apb2enr().modify(|_, w| w.usart1en().set_bit());
     let usart = dp.USART1;
     // Baud rate registers do not matter to QEMU's chardev.
-    usart
-        .cr1()
-        .write(|w| w.ue().set_bit().te().set_bit().re().set_bit().rxneie().set_bit());
+    usart.cr1().write(|w| {
+        w.ue()
+            .set_bit()
+            .te()
+            .set_bit()
+            .re()
+            .set_bit()
+            .rxneie()
+            .set_bit()
+    });
     flash_ram.fill(0xFF);
     Board {
         sampler: Sampler(crate::sim::SimPlant::new()),

@@ -30,8 +30,8 @@ use estimator_core::telemetry::ResetCause;
 use stm32f4xx_hal::{
     adc::{
         config::{
-            AdcConfig, Align, Clock, Continuous, Dma, Eoc, ExternalTrigger, Resolution,
-            SampleTime, Scan, Sequence, TriggerMode,
+            AdcConfig, Align, Clock, Continuous, Dma, Eoc, ExternalTrigger, Resolution, SampleTime,
+            Scan, Sequence, TriggerMode,
         },
         Adc,
     },
@@ -42,7 +42,6 @@ use stm32f4xx_hal::{
     qei::Qei,
     rcc::{Config, Enable, Rcc},
     serial::{self, Rx, RxListen, Serial, Tx, TxListen},
-    timer::CPin,
     watchdog::IndependentWatchdog,
 };
 
@@ -64,7 +63,8 @@ pub type AdcBuffer = [u16; OVERSAMPLING];
 pub type Statics = AdcBuffer;
 /// Its initial value.
 pub const STATICS_INIT: Statics = [0; OVERSAMPLING];
-type AdcTransfer = Transfer<Stream0<pac::DMA2>, 0, Adc<pac::ADC1>, PeripheralToMemory, &'static mut AdcBuffer>;
+type AdcTransfer =
+    Transfer<Stream0<pac::DMA2>, 0, Adc<pac::ADC1>, PeripheralToMemory, &'static mut AdcBuffer>;
 
 /// Clocks (see the module docs).
 pub fn clocks(rcc: pac::RCC) -> Rcc {
@@ -96,7 +96,7 @@ pub struct Sampler {
 
 impl Sampler {
     /// Configures ADC1 to convert `load_cell` 16 times at each TIM2 TRGO into `buffer` by
-    /// DMA, and TIM3 as the quadrature decoder of `encoder_pins` with input filter
+    /// DMA, and sets the input filter of the TIM3 quadrature decoder `encoder` to
     /// `encoder_filter` (TIMx_CCMR1.ICxF, RM0090 §18.4.7: 4 = f_DTS/2, N = 6; 6 = f_DTS/4,
     /// N = 6).
     pub fn new<P>(
@@ -104,11 +104,7 @@ impl Sampler {
         dma2: pac::DMA2,
         load_cell: &P,
         buffer: &'static mut AdcBuffer,
-        tim3: pac::TIM3,
-        encoder_pins: (
-            impl Into<<pac::TIM3 as CPin<0>>::Ch<stm32f4xx_hal::gpio::PushPull>>,
-            impl Into<<pac::TIM3 as CPin<1>>::Ch<stm32f4xx_hal::gpio::PushPull>>,
-        ),
+        encoder: Qei<pac::TIM3>,
         encoder_filter: u8,
         rcc: &mut Rcc,
     ) -> Self
@@ -139,10 +135,10 @@ impl Sampler {
                 .double_buffer(false),
         );
         transfer.start(|_| {});
-        let (tim3, _pins) = Qei::new(tim3, encoder_pins, rcc).release();
-        tim3.ccmr1_input().modify(|_, w| unsafe {
-            w.ic1f().bits(encoder_filter).ic2f().bits(encoder_filter)
-        });
+        // The pins stay in their alternate function when dropped.
+        let (tim3, _pins) = encoder.release();
+        tim3.ccmr1_input()
+            .modify(|_, w| unsafe { w.ic1f().bits(encoder_filter).ic2f().bits(encoder_filter) });
         Sampler {
             transfer,
             encoder: tim3,
@@ -160,13 +156,13 @@ impl Sampler {
         // reads the buffer, the same buffer is re-armed.
         let rearmed = unsafe {
             self.transfer.next_transfer_with(|buffer, _| {
-            let mut sum = 0u32;
-            let mut at_rail = false;
-            for &code in buffer.iter() {
-                sum += u32::from(code);
-                at_rail |= code == 0 || code >= ADC_FULL_SCALE_CODE;
-            }
-            (buffer, (sum, at_rail))
+                let mut sum = 0u32;
+                let mut at_rail = false;
+                for &code in buffer.iter() {
+                    sum += u32::from(code);
+                    at_rail |= code == 0 || code >= ADC_FULL_SCALE_CODE;
+                }
+                (buffer, (sum, at_rail))
             })
         };
         let fresh = complete && rearmed.is_ok();
@@ -350,7 +346,11 @@ impl Flash {
 pub fn panic_message() -> PanicText {
     let mut text = PanicText::new();
     for &b in panic_persist::get_panic_message_bytes().unwrap_or(&[]) {
-        let c = if b.is_ascii() && !b.is_ascii_control() { b as char } else { '?' };
+        let c = if b.is_ascii() && !b.is_ascii_control() {
+            b as char
+        } else {
+            '?'
+        };
         if text.push(c).is_err() {
             break;
         }

@@ -29,7 +29,7 @@
 //! selector on PA4; this module follows HW 60 (MK1) and drives neither: on a board with
 //! the power button, the latch must be held by the button while testing.
 
-use stm32f4xx_hal::{pac, prelude::*, serial::Serial};
+use stm32f4xx_hal::{pac, prelude::*, qei::Qei, serial::Serial};
 
 use super::stm32::{self, AdcBuffer, Board, Flash, Sampler, StatusLed, Watchdog};
 
@@ -58,13 +58,17 @@ pub fn setup(dp: pac::Peripherals, adc_buffer: &'static mut AdcBuffer) -> Board 
         dp.DMA2,
         &load_cell,
         adc_buffer,
-        dp.TIM3,
-        (gpioc.pc6, gpioc.pc7),
+        Qei::new(dp.TIM3, (gpioc.pc6, gpioc.pc7), &mut rcc),
         ENCODER_FILTER,
         &mut rcc,
     );
-    let serial = Serial::new(dp.USART3, (gpiob.pb10, gpiob.pb11), stm32::uart_config(), &mut rcc)
-        .unwrap_or_else(|_| super::unreachable_config());
+    let serial = Serial::new(
+        dp.USART3,
+        (gpiob.pb10, gpiob.pb11),
+        stm32::uart_config(),
+        &mut rcc,
+    )
+    .unwrap_or_else(|_| super::unreachable_config());
     let (uart_tx, uart_rx) = stm32::uart(serial);
     let (timer, clock) = stm32::timers(dp.TIM2, dp.TIM5, &mut rcc);
     let mut led = gpiob.pb0.into_push_pull_output().erase();
