@@ -40,6 +40,33 @@ pub use qemu::*;
 #[cfg(any(feature = "odrive-v3", feature = "vesc-6"))]
 pub use stm32::*;
 
+/// A panic message as the boot report carries it.
+pub type PanicText = heapless::String<{ estimator_core::protocol::PANIC_MESSAGE_BYTES }>;
+
+/// The target's parts, as [`setup`] hands them to the application.
+pub struct Board {
+    /// Load cell and encoder (QEMU: the simulated plant).
+    pub sampler: Sampler,
+    /// Sample timer.
+    pub timer: timers::SampleTimer,
+    /// Period clock.
+    pub clock: timers::PeriodClock,
+    /// UART transmit side.
+    pub uart_tx: UartTx,
+    /// UART receive side.
+    pub uart_rx: UartRx,
+    /// Watchdog (QEMU: none).
+    pub watchdog: Watchdog,
+    /// Settings flash (QEMU: RAM).
+    pub flash: Flash,
+    /// Status LED (or none).
+    pub led: StatusLed,
+    /// Why the MCU started.
+    pub reset_cause: estimator_core::telemetry::ResetCause,
+    /// Message of the panic before the last reset ("" if none; QEMU exits on a panic).
+    pub panic_message: PanicText,
+}
+
 /// Sample rate of the estimator task \[Hz\].
 pub const SAMPLE_RATE_HZ: u32 = 1000;
 /// Sample time \[s\].

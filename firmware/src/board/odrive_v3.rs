@@ -30,8 +30,8 @@
 
 use stm32f4xx_hal::{pac, prelude::*, qei::Qei, serial::Serial};
 
-use super::stm32::AdcBuffer;
-use super::stm32::{self, Board, Flash, Sampler, StatusLed, Watchdog};
+use super::stm32::{self, AdcBuffer, Sampler, StatusLed};
+use super::Board;
 
 /// Name in the boot report.
 pub const BOARD_NAME: &str = "odrive-v3";
@@ -42,49 +42,31 @@ const ENCODER_FILTER: u8 = 4;
 
 /// Clocks, pins and peripherals.
 pub fn setup(dp: pac::Peripherals, adc_buffer: &'static mut AdcBuffer) -> Board {
-    let reset_cause = super::reset_cause(&dp.RCC);
-    let panic_message = stm32::panic_message();
-    let watchdog = Watchdog::start(dp.IWDG, &dp.DBGMCU);
-    let mut rcc = stm32::clocks(dp.RCC);
-    let gpioa = dp.GPIOA.split(&mut rcc);
-    let gpiob = dp.GPIOB.split(&mut rcc);
+    let mut start = stm32::start(dp.RCC, dp.IWDG, &dp.DBGMCU);
+    let gpioa = dp.GPIOA.split(&mut start.rcc);
+    let gpiob = dp.GPIOB.split(&mut start.rcc);
     // Both DRV8301 gate drivers stay disabled: this firmware never drives the motors.
     let mut en_gate = gpiob.pb12.into_push_pull_output();
     en_gate.set_low();
     let load_cell = gpioa.pa2.into_analog();
+    // PB4 leaves reset as the JTAG NJTRST pin (AF0, pull-up); SWD does not need it.
+    let encoder = Qei::new(
+        dp.TIM3,
+        (gpiob.pb4.into_floating_input(), gpiob.pb5),
+        &mut start.rcc,
+    );
+    let rcc = &mut start.rcc;
     let sampler = Sampler::new(
         dp.ADC1,
         dp.DMA2,
         &load_cell,
         adc_buffer,
-        // PB4 leaves reset as the JTAG NJTRST pin (AF0, pull-up); SWD does not need it.
-        Qei::new(
-            dp.TIM3,
-            (gpiob.pb4.into_floating_input(), gpiob.pb5),
-            &mut rcc,
-        ),
+        encoder,
         ENCODER_FILTER,
-        &mut rcc,
+        rcc,
     );
-    let serial = Serial::new(
-        dp.UART4,
-        (gpioa.pa0, gpioa.pa1),
-        stm32::uart_config(),
-        &mut rcc,
-    )
-    .unwrap_or_else(|_| super::unreachable_config());
-    let (uart_tx, uart_rx) = stm32::uart(serial);
-    let (timer, clock) = stm32::timers(dp.TIM2, dp.TIM5, &mut rcc);
-    Board {
-        sampler,
-        timer,
-        clock,
-        uart_tx,
-        uart_rx,
-        watchdog,
-        flash: Flash::new(dp.FLASH),
-        led: StatusLed::new(None),
-        reset_cause,
-        panic_message,
-    }
+    let serial = Serial::new(dp.UART4, (gpioa.pa0, gpioa.pa1), stm32::uart_config(), rcc)
+        .unwrap_or_else(|_| super::unreachable_config());
+    let led = StatusLed::new(None);
+    stm32::finish(start, sampler, serial, (dp.TIM2, dp.TIM5), dp.FLASH, led)
 }

@@ -11,10 +11,7 @@ use estimator_core::protocol::BytePort;
 use stm32f4::stm32f405 as pac;
 
 use super::timers::{PeriodClock, SampleEvent, SampleTimer};
-use super::RawCodes;
-
-/// A panic message as the boot report carries it.
-pub type PanicText = heapless::String<{ estimator_core::protocol::PANIC_MESSAGE_BYTES }>;
+use super::{Board, PanicText, RawCodes};
 
 /// Name in the boot report.
 pub const BOARD_NAME: &str = "qemu";
@@ -166,30 +163,6 @@ impl embedded_storage::nor_flash::NorFlash for Flash {
 }
 
 impl embedded_storage::nor_flash::MultiwriteNorFlash for Flash {}
-
-/// The board's parts.
-pub struct Board {
-    /// Sensors (simulated plant).
-    pub sampler: Sampler,
-    /// Sample timer.
-    pub timer: SampleTimer,
-    /// Period clock.
-    pub clock: PeriodClock,
-    /// UART transmit side.
-    pub uart_tx: UartTx,
-    /// UART receive side.
-    pub uart_rx: UartRx,
-    /// Watchdog (no-op).
-    pub watchdog: Watchdog,
-    /// Settings flash (RAM).
-    pub flash: Flash,
-    /// Status LED (none).
-    pub led: StatusLed,
-    /// Why the MCU started.
-    pub reset_cause: estimator_core::telemetry::ResetCause,
-    /// Message of the panic before the last reset (none: QEMU exits on a panic).
-    pub panic_message: PanicText,
-}
 
 /// Timers, UART and the simulated plant.
 pub fn setup(dp: pac::Peripherals, flash_ram: &'static mut Statics) -> Board {

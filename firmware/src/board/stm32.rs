@@ -46,7 +46,9 @@ use stm32f4xx_hal::{
 };
 
 use super::timers::{PeriodClock, SampleEvent, SampleTimer};
-use super::{RawCodes, ADC_FULL_SCALE_CODE, OVERSAMPLING, UART_BAUD, WATCHDOG_MS};
+use super::{
+    Board, PanicText, RawCodes, ADC_FULL_SCALE_CODE, OVERSAMPLING, UART_BAUD, WATCHDOG_MS,
+};
 
 #[cfg(feature = "odrive-v3")]
 pub use super::odrive_v3::{setup, Uart, BOARD_NAME};
@@ -67,7 +69,7 @@ type AdcTransfer =
     Transfer<Stream0<pac::DMA2>, 0, Adc<pac::ADC1>, PeripheralToMemory, &'static mut AdcBuffer>;
 
 /// Clocks (see the module docs).
-pub fn clocks(rcc: pac::RCC) -> Rcc {
+fn clocks(rcc: pac::RCC) -> Rcc {
     rcc.freeze(
         Config::hse(8.MHz())
             .sysclk(168.MHz())
@@ -78,7 +80,7 @@ pub fn clocks(rcc: pac::RCC) -> Rcc {
 
 /// TIM2 (sample timer, interrupt at compare 1) and TIM5 (period clock) from the APB1
 /// timer clock.
-pub fn timers(tim2: pac::TIM2, tim5: pac::TIM5, rcc: &mut Rcc) -> (SampleTimer, PeriodClock) {
+fn timers(tim2: pac::TIM2, tim5: pac::TIM5, rcc: &mut Rcc) -> (SampleTimer, PeriodClock) {
     pac::TIM2::enable(rcc);
     pac::TIM5::enable(rcc);
     let clock_hz = rcc.clocks.timclk1().raw();
@@ -237,7 +239,7 @@ impl UartRx {
 }
 
 /// The UART at [`UART_BAUD`], 8N1, interrupts on received bytes.
-pub fn uart(serial: Serial<Uart>) -> (UartTx, UartRx) {
+fn uart(serial: Serial<Uart>) -> (UartTx, UartRx) {
     let (tx, mut rx) = serial.split();
     rx.listen();
     (UartTx(tx), UartRx(rx))
@@ -343,7 +345,7 @@ impl Flash {
 /// The message panic-persist kept from the panic before this start ("" if none):
 /// "Panicked at file:line:column" (its `min-panic` form: formatting the panic's own
 /// arguments would link core's float formatting, 20 KiB, past the 64 KiB budget).
-pub fn panic_message() -> PanicText {
+fn panic_message() -> PanicText {
     let mut text = PanicText::new();
     for &b in panic_persist::get_panic_message_bytes().unwrap_or(&[]) {
         let c = if b.is_ascii() && !b.is_ascii_control() {
@@ -358,29 +360,52 @@ pub fn panic_message() -> PanicText {
     text
 }
 
-/// A panic message as the boot report carries it.
-pub type PanicText = heapless::String<{ estimator_core::protocol::PANIC_MESSAGE_BYTES }>;
+/// What every board does first: the reset cause and the panic message (before anything
+/// clears them), the watchdog, the clocks.
+pub struct Start {
+    /// Clocks.
+    pub rcc: Rcc,
+    reset_cause: ResetCause,
+    panic_message: PanicText,
+    watchdog: Watchdog,
+}
 
-/// The board's parts.
-pub struct Board {
-    /// Load cell and encoder.
-    pub sampler: Sampler,
-    /// Sample timer.
-    pub timer: SampleTimer,
-    /// Period clock.
-    pub clock: PeriodClock,
-    /// UART transmit side.
-    pub uart_tx: UartTx,
-    /// UART receive side.
-    pub uart_rx: UartRx,
-    /// Watchdog.
-    pub watchdog: Watchdog,
-    /// Settings flash.
-    pub flash: Flash,
-    /// Status LED.
-    pub led: StatusLed,
-    /// Why the MCU started.
-    pub reset_cause: ResetCause,
-    /// Message of the panic before the last reset ("" if none).
-    pub panic_message: PanicText,
+/// Reset cause, panic message, watchdog, clocks.
+pub fn start(rcc: pac::RCC, iwdg: pac::IWDG, dbgmcu: &pac::DBGMCU) -> Start {
+    let reset_cause = super::reset_cause(&rcc);
+    let panic_message = panic_message();
+    let watchdog = Watchdog::start(iwdg, dbgmcu);
+    Start {
+        rcc: clocks(rcc),
+        reset_cause,
+        panic_message,
+        watchdog,
+    }
+}
+
+/// The parts a board module chose, with the shared ones, as the application's [`Board`]:
+/// the UART split with its receive interrupt on, TIM2 and TIM5 started (last, so that the
+/// first sample interrupt finds everything set up).
+pub fn finish(
+    mut start: Start,
+    sampler: Sampler,
+    serial: Serial<Uart>,
+    (tim2, tim5): (pac::TIM2, pac::TIM5),
+    flash: pac::FLASH,
+    led: StatusLed,
+) -> Board {
+    let (uart_tx, uart_rx) = uart(serial);
+    let (timer, clock) = timers(tim2, tim5, &mut start.rcc);
+    Board {
+        sampler,
+        timer,
+        clock,
+        uart_tx,
+        uart_rx,
+        watchdog: start.watchdog,
+        flash: Flash::new(flash),
+        led,
+        reset_cause: start.reset_cause,
+        panic_message: start.panic_message,
+    }
 }

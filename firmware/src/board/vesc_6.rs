@@ -31,7 +31,8 @@
 
 use stm32f4xx_hal::{pac, prelude::*, qei::Qei, serial::Serial};
 
-use super::stm32::{self, AdcBuffer, Board, Flash, Sampler, StatusLed, Watchdog};
+use super::stm32::{self, AdcBuffer, Sampler, StatusLed};
+use super::Board;
 
 /// Name in the boot report.
 pub const BOARD_NAME: &str = "vesc-6";
@@ -42,47 +43,34 @@ const ENCODER_FILTER: u8 = 6;
 
 /// Clocks, pins and peripherals.
 pub fn setup(dp: pac::Peripherals, adc_buffer: &'static mut AdcBuffer) -> Board {
-    let reset_cause = super::reset_cause(&dp.RCC);
-    let panic_message = stm32::panic_message();
-    let watchdog = Watchdog::start(dp.IWDG, &dp.DBGMCU);
-    let mut rcc = stm32::clocks(dp.RCC);
-    let gpioa = dp.GPIOA.split(&mut rcc);
-    let gpiob = dp.GPIOB.split(&mut rcc);
-    let gpioc = dp.GPIOC.split(&mut rcc);
+    let mut start = stm32::start(dp.RCC, dp.IWDG, &dp.DBGMCU);
+    let gpioa = dp.GPIOA.split(&mut start.rcc);
+    let gpiob = dp.GPIOB.split(&mut start.rcc);
+    let gpioc = dp.GPIOC.split(&mut start.rcc);
     // The DRV8301 stays disabled: this firmware never drives the motor.
     let mut enable_gate = gpiob.pb5.into_push_pull_output();
     enable_gate.set_low();
     let load_cell = gpioa.pa5.into_analog();
+    let encoder = Qei::new(dp.TIM3, (gpioc.pc6, gpioc.pc7), &mut start.rcc);
+    let rcc = &mut start.rcc;
     let sampler = Sampler::new(
         dp.ADC1,
         dp.DMA2,
         &load_cell,
         adc_buffer,
-        Qei::new(dp.TIM3, (gpioc.pc6, gpioc.pc7), &mut rcc),
+        encoder,
         ENCODER_FILTER,
-        &mut rcc,
+        rcc,
     );
     let serial = Serial::new(
         dp.USART3,
         (gpiob.pb10, gpiob.pb11),
         stm32::uart_config(),
-        &mut rcc,
+        rcc,
     )
     .unwrap_or_else(|_| super::unreachable_config());
-    let (uart_tx, uart_rx) = stm32::uart(serial);
-    let (timer, clock) = stm32::timers(dp.TIM2, dp.TIM5, &mut rcc);
-    let mut led = gpiob.pb0.into_push_pull_output().erase();
-    led.set_low();
-    Board {
-        sampler,
-        timer,
-        clock,
-        uart_tx,
-        uart_rx,
-        watchdog,
-        flash: Flash::new(dp.FLASH),
-        led: StatusLed::new(Some(led)),
-        reset_cause,
-        panic_message,
-    }
+    let mut green = gpiob.pb0.into_push_pull_output().erase();
+    green.set_low();
+    let led = StatusLed::new(Some(green));
+    stm32::finish(start, sampler, serial, (dp.TIM2, dp.TIM5), dp.FLASH, led)
 }
