@@ -192,9 +192,13 @@ mod app {
         cycles::start(&mut cx.core.SYST);
         #[cfg(feature = "qemu-hardfault")]
         cortex_m::asm::udf();
-        let board = board::setup(cx.device, cx.local.statics);
+        let mut board = board::setup(cx.device, cx.local.statics);
         let mut store = SettingsStore::new(board.flash, board::SETTINGS_RANGE);
+        // Reading may repair a store left half-written (or holding an older program's
+        // bytes) by erasing a sector: seconds without a flash fetch.
+        board.watchdog.set_timeout_ms(board::WATCHDOG_FLASH_MS);
         let stored = store.load();
+        board.watchdog.set_timeout_ms(board::WATCHDOG_MS);
         let settings_from_flash = stored.is_some();
         let settings = stored.unwrap_or_else(board::default_settings);
         let estimator = match estimator(&settings) {
