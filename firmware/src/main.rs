@@ -29,10 +29,10 @@ mod storage;
 use defmt_rtt as _;
 #[cfg(feature = "qemu")]
 use defmt_semihosting as _;
-// On the boards a panic stores its message in RAM (memory.x PANDUMP) and resets; the
+// On the boards a panic stores its location in RAM (memory.x PANDUMP) and resets; the
 // boot report of the next start carries it.
 #[cfg(not(feature = "qemu"))]
-use panic_persist as _;
+use panic_location as _;
 
 /// Under QEMU a panic ends the run with exit code 4.
 #[cfg(feature = "qemu")]

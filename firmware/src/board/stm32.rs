@@ -22,8 +22,9 @@
 //!   writes.
 //! - Settings: flash sectors 10 and 11 (2 × 128 KiB at 0x080C_0000, RM0090 Table 5),
 //!   which `memory.x` keeps out of the program's FLASH region.
-//! - Panics: panic-persist writes the message to the 1 KiB `PANDUMP` RAM region of
-//!   `memory.x` and resets; the next start reports it.
+//! - Panics: the `panic-location` crate writes "Panicked at file:line:column" to the
+//!   1 KiB `PANDUMP` RAM region of `memory.x` in panic-persist's format and resets; the
+//!   next start reads it back through panic-persist and reports it.
 
 use estimator_core::protocol::BytePort;
 use estimator_core::telemetry::ResetCause;
@@ -342,9 +343,9 @@ impl Flash {
     }
 }
 
-/// The message panic-persist kept from the panic before this start ("" if none):
-/// "Panicked at file:line:column" (its `min-panic` form: formatting the panic's own
-/// arguments would link core's float formatting, 20 KiB, past the 64 KiB budget).
+/// The message kept from the panic before this start ("" if none): "Panicked at
+/// file:line:column", written by the `panic-location` crate in panic-persist's format
+/// (its `min-panic` form without `core::fmt`: see that crate for why).
 fn panic_message() -> PanicText {
     let mut text = PanicText::new();
     for &b in panic_persist::get_panic_message_bytes().unwrap_or(&[]) {
