@@ -75,8 +75,9 @@ pub struct TelemetryFrame {
     pub depth_m: f32,
     /// Tared force \[N\] of the last sample.
     pub force_n: f32,
-    /// Flags of the last sample, OR-ed with [`Status::MODEL_MISMATCH`] if the monitor
-    /// raised it since the previous frame.
+    /// Flags of the last sample (e.g. [`Status::OFFSET_UNCERTAIN`] while the force offset
+    /// is unconfirmed), OR-ed with [`Status::MODEL_MISMATCH`] and
+    /// [`Status::OFFSET_CORRECTED`] if any sample since the previous frame raised them.
     pub status: Status,
     /// 1 kHz deadlines missed since start: the task ran but ended after the next period
     /// had begun.

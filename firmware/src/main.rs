@@ -81,6 +81,12 @@ const LINK_BYTES: usize = 1024;
 const REQUEST_QUEUE: usize = 4;
 /// Telemetry frames after start that carry the boot report again.
 const BOOT_REPEATS: u8 = 3;
+/// Flags of single samples that a frame reports if any sample since the previous frame
+/// raised them (the other flags are the frame's own sample's): the monitor's model
+/// mismatch, and a free-space stretch that corrected the force offset and restarted the
+/// estimator.
+const LATCHED_FLAGS: estimator_core::Status =
+    estimator_core::Status::MODEL_MISMATCH.union(estimator_core::Status::OFFSET_CORRECTED);
 
 /// A received frame, decoded or not.
 pub type Inbound = Result<estimator_core::protocol::Request, estimator_core::protocol::FrameError>;
@@ -132,7 +138,9 @@ mod app {
     use crate::board::{self, Conversion};
     use crate::cycles::{self, Stats};
     use crate::storage::SettingsStore;
-    use crate::{Inbound, Latest, Link, BOOT_REPEATS, FIRMWARE_VERSION, REQUEST_QUEUE};
+    use crate::{
+        Inbound, Latest, Link, BOOT_REPEATS, FIRMWARE_VERSION, LATCHED_FLAGS, REQUEST_QUEUE,
+    };
 
     #[shared]
     struct Shared {
@@ -169,7 +177,8 @@ mod app {
         sample: u32,
         overruns: u32,
         lost_periods: u32,
-        mismatch: bool,
+        /// Event flags ([`LATCHED_FLAGS`]) raised since the last telemetry frame.
+        latched: Status,
         body: Stats,
         step: Stats,
     }
@@ -284,7 +293,7 @@ mod app {
                 sample: 0,
                 overruns: 0,
                 lost_periods: 0,
-                mismatch: false,
+                latched: Status::empty(),
                 body: Stats::default(),
                 step: Stats::default(),
             },
@@ -302,7 +311,7 @@ mod app {
 
     /// The 1 kHz sample: raw codes → SI → pipeline → published estimate.
     #[task(binds = TIM2, priority = 3, shared = [pipeline, conversion, latest, watchdog],
-           local = [sampler, timer, clock, led, sample, overruns, lost_periods, mismatch, body, step,
+           local = [sampler, timer, clock, led, sample, overruns, lost_periods, latched, body, step,
                     load_cell_v: f32 = f32::NAN])]
     fn sample(cx: sample::Context) {
         let l = cx.local;
@@ -320,7 +329,7 @@ mod app {
             .lock(|p| (p.step(&raw), p.estimator().kind()));
         let t2 = cycles::now();
         *l.sample = l.sample.wrapping_add(1);
-        *l.mismatch |= out.status.contains(Status::MODEL_MISMATCH);
+        *l.latched |= out.status & LATCHED_FLAGS;
         l.led.set(out.contact == ContactState::InContact);
         if volts.is_finite() {
             let mean = *l.load_cell_v;
@@ -331,10 +340,7 @@ mod app {
             };
         }
         let sample = *l.sample;
-        let mut status = out.status;
-        if *l.mismatch {
-            status |= Status::MODEL_MISMATCH;
-        }
+        let status = out.status | *l.latched;
         let due = sample.is_multiple_of(u32::from(period.max(1)));
         let (overruns, lost_periods, load_cell_v) = (*l.overruns, *l.lost_periods, *l.load_cell_v);
         shared.latest.lock(|latest| {
@@ -356,7 +362,7 @@ mod app {
             }
         });
         if due {
-            *l.mismatch = false;
+            *l.latched = Status::empty();
         }
         shared.watchdog.lock(|w| w.feed());
         if l.timer.overran() {

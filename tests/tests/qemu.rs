@@ -151,6 +151,32 @@ fn smoke_run_converges_without_missed_deadlines(elf: &Path) {
     for pair in decoded.frames.windows(2) {
         assert_eq!(pair[1].sample - pair[0].sample, 20, "{pair:?}");
     }
+    // The force offset is the start-up value, flagged, until the probe's free-space
+    // approach confirms it (it starts moving at 0.5 s), before the first contact; it is
+    // never corrected (the simulated load cell's zero does not move).
+    let first = decoded.frames[0];
+    assert!(first.status.contains(Status::OFFSET_UNCERTAIN), "{first:?}");
+    let confirmed = decoded
+        .frames
+        .iter()
+        .position(|f| !f.status.contains(Status::OFFSET_UNCERTAIN))
+        .expect("offset never confirmed");
+    assert!(
+        decoded.frames[confirmed..]
+            .iter()
+            .all(|f| !f.status.contains(Status::OFFSET_UNCERTAIN)),
+        "offset unconfirmed again"
+    );
+    let first_contact = decoded
+        .frames
+        .iter()
+        .position(|f| f.contact == ContactState::InContact)
+        .expect("no contact");
+    assert!(confirmed < first_contact, "{confirmed} {first_contact}");
+    assert!(decoded
+        .frames
+        .iter()
+        .all(|f| !f.status.contains(Status::OFFSET_CORRECTED)));
     let last = decoded.frames.last().unwrap();
     assert_eq!(
         (last.overruns, last.lost_periods, last.frames_dropped),
