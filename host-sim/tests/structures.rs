@@ -79,8 +79,8 @@ fn every_structure_runs_with_its_axis_and_offset_flags_and_mostly_within_toleran
     check(&[2000, 2001], 0.80, 0.08);
 }
 
-/// The README's table: 20 unseen seeds per structure × estimator (release build, ~10 min
-/// on 2 cores; run with `--ignored`).
+/// The README's table: 20 unseen seeds per structure × estimator (6 min on 2 cores in the
+/// test profile; `.ci/run` runs it with `-- --ignored --nocapture`).
 #[test]
 #[ignore]
 fn structure_table_on_unseen_seeds() {
