@@ -579,6 +579,7 @@ pub fn diagnose_file(
     )
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;
+    prepared.offset_unidentified = !front.offset_identifiable();
     if let Some(phase) = until_end_of {
         if !prepared.keep_until_end_of(phase) {
             bail!(

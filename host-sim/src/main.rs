@@ -280,6 +280,24 @@ fn diagnose_one(
             s.before.bic,
             s.after.bic
         );
+        for i in &s.indistinguishable_from {
+            eprintln!(
+                "    the record cannot tell it from {} (ΔBIC {:+.1}): needs {}",
+                i.effect.id(),
+                i.delta_bic,
+                i.separating_motion
+            );
+        }
+    }
+    if !d.unidentifiable.is_empty() {
+        eprintln!(
+            "  not tried (the record cannot identify them; see the report): {}",
+            d.unidentifiable
+                .iter()
+                .map(|e| e.id())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
     }
     eprintln!(
         "  final model: {} (NRMSE {:.3} %, VAF {:.2} %) in {elapsed:.2} s",
@@ -293,7 +311,7 @@ fn diagnose_one(
     if json {
         println!(
             "{}",
-            serde_json::to_string(&diagnosis_report::json(&name, d))?
+            serde_json::to_string(&diagnosis_report::json(&name, d, &run.prepared))?
         );
     }
     Ok(())

@@ -98,23 +98,68 @@ fn gap_shrinks_on_the_whole_steel_indentation() {
     gap_shrinks("steel-hysitron", &d, 0.25);
 }
 
-/// Ecoflex compression to 67 % strain: strong stiffening (local log-log slope 1.1 →
-/// 2.3), so a stiffening law comes first.
+/// Ecoflex compression to 67 % strain at one speed (10 mm/min), loading only, never out
+/// of contact: strong stiffening (local log-log slope 1.1 → 2.3), so a stiffening law
+/// comes first; the record passes each depth at one speed, so no rate effect (damping,
+/// delay, inertia, friction) may be named, the baseline's damping is held at 0, and the
+/// offset, which no free-space sample fixes, is not refitted.
 #[test]
-fn silicone_compression_names_stiffening_first_and_shrinks() {
+fn silicone_compression_names_only_elastic_effects() {
     let d = diagnosed("silicone-compression/ecoflex-00-10-A1.csv", None);
     let first = d.steps[0].effect.id();
     assert!(
         first == "exponential_stiffness" || first == "power_law_stiffness",
         "first effect {first}"
     );
-    gap_shrinks("ecoflex", &d, 0.2);
+    for e in d.effects_added() {
+        assert!(
+            [
+                "exponential_stiffness",
+                "power_law_stiffness",
+                "contact_point_offset",
+                "plastic_set"
+            ]
+            .contains(&e),
+            "{} named on a one-speed loading curve",
+            e
+        );
+    }
+    for e in [
+        "depth_dependent_damping",
+        "time_delay",
+        "inertia",
+        "coulomb_friction",
+        "force_offset",
+    ] {
+        assert!(
+            d.unidentifiable.iter().any(|u| u.id() == e),
+            "{e} should be reported not identifiable: {:?}",
+            d.unidentifiable
+        );
+    }
+    for fit in std::iter::once(&d.baseline_fit).chain(d.steps.iter().map(|s| &s.after)) {
+        assert_eq!(fit.parameter("lambda"), Some(0.0), "damping not held");
+        assert_eq!(fit.parameter("tare_n"), Some(0.0), "tare refitted");
+    }
+    gap_shrinks("ecoflex", &d, 0.25);
 }
 
+/// The AFM creep record: its free-space force is strongly coloured (cantilever drift
+/// and vibration; N_eff ≈ 2 % of N), and no candidate's gain (at most 0.3 % of the 6.5 %
+/// NRMSE, none in the creep hold) survives the BIC on the effective samples. Counting
+/// every sample, the workflow used to add Coulomb friction and depth-dependent damping to
+/// brain tissue here; it must now add nothing and say why.
 #[test]
-fn gap_shrinks_on_the_afm_creep_record() {
+fn afm_creep_adds_nothing_its_coloured_noise_cannot_support() {
     let d = diagnosed("afm/brain-creep-jpk.txt", None);
-    gap_shrinks("brain-creep", &d, 0.9);
+    let fraction = d.noise_sample_fraction.expect("free space measured");
+    assert!(fraction < 0.1, "N_eff / N = {fraction}");
+    assert!(
+        d.steps.is_empty(),
+        "added {:?} on coloured noise",
+        d.effects_added()
+    );
+    assert!(d.final_candidates.iter().all(|c| !c.significant));
 }
 
 /// `host-sim diagnose FILE --json --out DIR`: one JSON object with the documented keys on
@@ -161,6 +206,16 @@ fn cli_writes_report_plots_and_json() {
         v["nrmse_percent_final"].as_f64().unwrap()
             < steps[0]["nrmse_percent_before"].as_f64().unwrap()
     );
+    // The elastic law for a master device: ≥ 32 depths from 0, force 0 at 0 and
+    // non-decreasing (a passive spring).
+    let table = &v["elastic_force_table"];
+    let depth: Vec<f64> = serde_json::from_value(table["depth_m"].clone()).unwrap();
+    let force: Vec<f64> = serde_json::from_value(table["force_n"].clone()).unwrap();
+    assert!(depth.len() >= 32 && depth.len() == force.len());
+    assert_eq!((depth[0], force[0]), (0.0, 0.0));
+    assert!(depth.windows(2).all(|w| w[1] > w[0]));
+    assert!(force.windows(2).all(|w| w[1] >= w[0]), "{force:?}");
+    assert!(*force.last().unwrap() > 0.0);
     for f in [
         "report.md",
         "diagnosis.json",

@@ -58,6 +58,20 @@ pub struct Prepared {
     /// First fitting sample after the end of the first contact: the probe is back above
     /// the first contact point (the length if the log never leaves its first contact).
     pub first_contact_end: usize,
+    /// The linear damping coefficient is held at 0 in every model (set by the workflow
+    /// when the record passes each depth at one speed, where λ·δ̇ is indistinguishable
+    /// from the elastic law and the tare).
+    pub hold_damping: bool,
+    /// The whole-record front end could not determine the force offset (the record
+    /// never leaves contact). On a record that is also a one-speed loading curve, the
+    /// workflow then holds the tare (see [`Prepared::hold_tare`]).
+    pub offset_unidentified: bool,
+    /// The tare refinement is held at 0 in every model and a `force_offset` is not tried:
+    /// set by the workflow on a loading curve that never leaves contact, where an offset
+    /// is the elastic law's value at the first sample, indistinguishable from a contact
+    /// point before the record and the law's shape. (With a hold, an unloading or
+    /// several speeds, the dynamics separate them and the tare stays free.)
+    pub hold_tare: bool,
 }
 
 /// Why a log cannot be diagnosed.
@@ -289,6 +303,9 @@ fn assemble(
             .collect(),
         block,
         first_contact_end,
+        hold_damping: false,
+        offset_unidentified: false,
+        hold_tare: false,
     }
 }
 

@@ -4,13 +4,27 @@
 //!
 //! Each step fits every candidate effect added to the current model (variable
 //! projection, [`model::fit`]) and ranks them by blocked 5-fold cross-validation RMSE.
-//! The best is accepted only if all of these hold:
+//! Every fit is physical (κ, k, m ≥ 0 and λ ≥ 0: a coefficient the data would make
+//! negative is held at 0). The best is accepted only if all of these hold:
 //! - its parameters are physical (a relaxed fraction in [0, 1), friction c ≥ 0);
-//! - BIC falls by more than 10 (Kass & Raftery's "very strong" evidence), with the
-//!   number of fitting samples N;
-//! - the held-out error improves on every one of the 5 contiguous time blocks (a sign
-//!   test at p = 1/32 < 0.05 that the gain is not confined to one stretch of the record);
+//! - BIC falls by more than 10 (Kass & Raftery's "very strong" evidence), counting
+//!   effective samples N_eff = N / (1 + 2 Σ ρ_k), the ρ_k the positive autocorrelations
+//!   of the sensor noise, measured on the free-space stretches of the record
+//!   ([`noise_sample_fraction`]; of the candidate's residual when the record has fewer
+//!   than 100 free samples, [`effective_samples`]): real noise is coloured, and N would
+//!   make any slow wiggle of it "significant";
+//! - the held-out error improves on at least 3 of the 5 contiguous time blocks;
 //! - the mean held-out error improves by at least 1 %.
+//!
+//! **Identifiability before significance.** Two significant candidates whose fits the
+//! record cannot tell apart (their BIC, on the same effective samples, within the
+//! threshold of each other, with the residuals floored at 10⁻⁴ of the force range, a
+//! load cell's resolution) are the same signature on this motion: damping ∝ δ^q·δ̇ at one
+//! constant speed is a power-law spring; a delay is damping when the motion has one
+//! frequency. The one that needs no unexcited signal is named (an elastic law before a
+//! measurement effect, before relaxation, before a rate-dependent effect:
+//! [`Effect::precedence`]), and the step lists the others with the motion that would
+//! separate them ([`separating_motion`]).
 //!
 //! The loop stops when no candidate passes, or after [`Options::max_steps`].
 
@@ -132,11 +146,25 @@ pub struct Localisation {
     pub cross_correlation: BTreeMap<String, (f64, i32)>,
 }
 
+/// An effect the record cannot tell apart from the one named.
+#[derive(Debug, Clone, Serialize)]
+pub struct Indistinguishable {
+    /// The other effect.
+    pub effect: Effect,
+    /// Its BIC minus the named effect's (effective samples; |·| below the threshold).
+    pub delta_bic: f64,
+    /// The motion that would separate the two.
+    pub separating_motion: &'static str,
+}
+
 /// One accepted addition.
 #[derive(Debug, Clone, Serialize)]
 pub struct Step {
     /// The effect added.
     pub effect: Effect,
+    /// Significant candidates the record cannot tell apart from it (empty when the
+    /// named effect is identified).
+    pub indistinguishable_from: Vec<Indistinguishable>,
     /// The effect it replaced, if any (power law ↔ exponential elasticity).
     pub replaces: Option<Effect>,
     /// The model before and after.
@@ -166,6 +194,14 @@ pub struct Diagnosis {
     pub final_fit: Fit,
     /// Its residual localisation.
     pub final_localisation: Localisation,
+    /// N_eff / N of the sensor noise the BIC counts ([`noise_sample_fraction`]); `None`
+    /// when the record has too little free space and each fit's residual decides.
+    pub noise_sample_fraction: Option<f64>,
+    /// [`rate_spread_at_depth`] of the record.
+    pub rate_spread: f64,
+    /// Effects not tried because the record cannot identify them (the rate effects when
+    /// the spread is below [`RATE_SPREAD_MIN`]).
+    pub unidentifiable: Vec<Effect>,
 }
 
 impl Diagnosis {
@@ -198,6 +234,27 @@ impl Diagnosis {
 pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let mut effects = options.baseline.effects();
     let duration_s = data.dt * (data.len() - data.fit_start()) as f64;
+    let noise_fraction = noise_sample_fraction(data);
+    // Rate effects on a record that passes each depth at one speed are elastic laws in
+    // disguise: not tried, listed, and the baseline's own damping held at 0.
+    let rate_spread = rate_spread_at_depth(data, data.fit_start());
+    let one_speed = rate_spread < RATE_SPREAD_MIN;
+    let hold_tare = one_speed && data.offset_unidentified;
+    let unidentifiable: Vec<Effect> = Effect::ALL
+        .into_iter()
+        .filter(|e| (one_speed && e.is_rate_effect()) || (hold_tare && *e == Effect::ForceOffset))
+        .collect();
+    let held;
+    let data = if one_speed {
+        held = Prepared {
+            hold_damping: true,
+            hold_tare,
+            ..data.clone()
+        };
+        &held
+    } else {
+        data
+    };
     let baseline_fit = model::fit(
         data,
         &effects,
@@ -214,7 +271,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         // another effect was still missing can be revised.
         let untried: Vec<(Effect, Option<Effect>)> = Effect::ALL
             .into_iter()
-            .filter(|e| !effects.contains(e))
+            .filter(|e| !effects.contains(e) && !unidentifiable.contains(e))
             .map(|e| (e, effects.iter().copied().find(|p| p.conflicts_with(e))))
             .collect();
         // Candidates are independent fits: one per core. All are screened with a quick
@@ -236,7 +293,16 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
                     &e.knob().into_iter().collect::<Vec<_>>(),
                     effort,
                 )?;
-                Some(score(e, replaces, fit, &current, options, duration_s))
+                Some(score(
+                    data,
+                    e,
+                    replaces,
+                    fit,
+                    &current,
+                    options,
+                    duration_s,
+                    noise_fraction,
+                ))
             };
         let mut screened: Vec<Candidate> = untried
             .into_par_iter()
@@ -257,7 +323,9 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             c
         }));
         candidates.sort_by(|a, b| a.fit.cv_rmse.total_cmp(&b.fit.cv_rmse));
-        let Some(best) = candidates.iter().find(|c| c.significant).cloned() else {
+        let Some((best, indistinguishable_from)) =
+            choose(data, &candidates, options, noise_fraction)
+        else {
             final_candidates = candidates;
             break;
         };
@@ -268,6 +336,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         // (The candidate's fit already refined every nonlinear parameter jointly.)
         steps.push(Step {
             effect: best.effect,
+            indistinguishable_from,
             replaces: best.replaces,
             localisation_before: localise(data, &current),
             localisation_after: localise(data, &best.fit),
@@ -284,18 +353,251 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         steps,
         final_candidates,
         final_fit: current,
+        noise_sample_fraction: noise_fraction,
+        rate_spread,
+        unidentifiable,
     })
 }
 
+/// The significant candidate to name and the others the record cannot tell apart from
+/// it: the best by held-out error unless one that needs less of the motion (lower
+/// [`Effect::precedence`]) fits indistinguishably well. `None` if none is significant.
+fn choose(
+    data: &Prepared,
+    candidates: &[Candidate],
+    options: &Options,
+    noise_fraction: Option<f64>,
+) -> Option<(Candidate, Vec<Indistinguishable>)> {
+    let significant: Vec<&Candidate> = candidates.iter().filter(|c| c.significant).collect();
+    let first = *significant.first()?;
+    let floor = rss_floor(data, &first.fit);
+    let n_eff = samples_counted(data, &first.fit, noise_fraction);
+    let tied = |a: &Candidate, b: &Candidate| {
+        delta_bic(&a.fit, &b.fit, n_eff, floor).abs() <= options.min_bic_drop
+    };
+    let chosen = significant
+        .iter()
+        .filter(|c| tied(c, first))
+        .min_by_key(|c| c.effect.precedence())
+        .copied()
+        .unwrap_or(first);
+    let others = significant
+        .iter()
+        .filter(|c| c.effect != chosen.effect && tied(c, chosen))
+        .map(|c| Indistinguishable {
+            effect: c.effect,
+            delta_bic: delta_bic(&c.fit, &chosen.fit, n_eff, floor),
+            separating_motion: separating_motion(chosen.effect, c.effect),
+        })
+        .collect();
+    Some((chosen.clone(), others))
+}
+
+/// The residual sum of squares below which two fits are equally exact: n·(10⁻⁴ of the
+/// force range)², a 14-bit load cell's resolution. Without it two noise-free fits
+/// would differ by the search's rounding.
+fn rss_floor(data: &Prepared, fit: &Fit) -> f64 {
+    let y = &data.force_n[fit.start..];
+    let range = y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - y.iter().copied().fold(f64::INFINITY, f64::min);
+    y.len() as f64 * (1e-4 * range).powi(2)
+}
+
+/// BIC of `a` minus BIC of `b` on `n_eff` effective samples, residuals floored at
+/// `floor` \[N²\]: N_eff·ln((RSS_a + floor)/(RSS_b + floor)) + (p_a − p_b)·ln N_eff.
+pub fn delta_bic(a: &Fit, b: &Fit, n_eff: f64, floor: f64) -> f64 {
+    n_eff * ((a.rss + floor) / (b.rss + floor)).ln()
+        + (a.free_parameters as f64 - b.free_parameters as f64) * n_eff.ln()
+}
+
+/// How much the penetration rate varies at a given depth, relative to its RMS, over the
+/// contact samples of the fit window: √(mean within-bin variance of δ̇) / RMS δ̇, with
+/// the contact samples sorted by depth into 20 bins of equal count. 0 when each depth is
+/// passed at one speed (a loading ramp at any speed profile), about 1 when it is passed
+/// loading and unloading. Below [`RATE_SPREAD_MIN`], every rate effect (λ·δ^q·δ̇, a
+/// delay, δ̈, sign δ̇) is a function of depth on this record, the same signature as an
+/// elastic law: not identifiable.
+pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
+    let mut samples: Vec<(f64, f64)> = (start..data.len())
+        .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0)
+        .map(|i| (data.depth_m[i], data.rate_m_per_s[i]))
+        .collect();
+    if samples.len() < 40 {
+        return 0.0;
+    }
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rms = (samples.iter().map(|s| s.1 * s.1).sum::<f64>() / samples.len() as f64).sqrt();
+    if rms <= 0.0 {
+        return 0.0;
+    }
+    let bins = 20;
+    let per = samples.len() / bins;
+    let mut within = 0.0;
+    let mut count = 0usize;
+    for b in 0..bins {
+        let chunk = &samples[b * per..if b + 1 == bins {
+            samples.len()
+        } else {
+            (b + 1) * per
+        }];
+        let m = chunk.iter().map(|s| s.1).sum::<f64>() / chunk.len() as f64;
+        within += chunk.iter().map(|s| (s.1 - m) * (s.1 - m)).sum::<f64>();
+        count += chunk.len();
+    }
+    (within / count as f64).sqrt() / rms
+}
+
+/// [`rate_spread_at_depth`] below which rate effects are not identifiable.
+pub const RATE_SPREAD_MIN: f64 = 0.2;
+
+/// The effective samples a fit's BIC counts: its N times the noise's
+/// [`noise_sample_fraction`], or its residual's [`effective_samples`] without one.
+fn samples_counted(data: &Prepared, fit: &Fit, noise_fraction: Option<f64>) -> f64 {
+    match noise_fraction {
+        Some(f) => (f * fit.samples as f64).max(2.0),
+        None => effective_samples(&fit.residual(data)),
+    }
+}
+
+/// N_eff / N of the sensor noise: 1 / (1 + 2 Σ ρ_k) over the positive autocorrelations
+/// (at most 50 lags) of the force on the record's free-space stretches (each of at least
+/// 20 fitting samples, its own least-squares line removed). `None` when the record has fewer than 100
+/// such samples.
+pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
+    let mut runs: Vec<Vec<f64>> = Vec::new();
+    let mut run: Vec<f64> = Vec::new();
+    for (c, f) in data.contact.iter().zip(&data.force_n) {
+        if *c {
+            if run.len() >= 20 {
+                runs.push(std::mem::take(&mut run));
+            }
+            run.clear();
+        } else {
+            run.push(*f);
+        }
+    }
+    if run.len() >= 20 {
+        runs.push(run);
+    }
+    // Each stretch detrended (its least-squares line removed): a slow drift of the
+    // free-space force (hydrodynamic drag on an approach, thermal drift) is not noise.
+    for r in &mut runs {
+        let n = r.len() as f64;
+        let tm = (n - 1.0) / 2.0;
+        let m = r.iter().sum::<f64>() / n;
+        let (stt, sty) = r.iter().enumerate().fold((0.0, 0.0), |(a, b), (i, v)| {
+            let t = i as f64 - tm;
+            (a + t * t, b + t * (v - m))
+        });
+        let slope = sty / stt;
+        r.iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v -= m + slope * (i as f64 - tm));
+    }
+    if runs.iter().map(Vec::len).sum::<usize>() < 100 {
+        return None;
+    }
+    let var: f64 = runs.iter().flatten().map(|v| v * v).sum();
+    if var <= 0.0 {
+        return Some(1.0);
+    }
+    let mut sum = 0.0;
+    for k in 1..=50 {
+        let c: f64 = runs
+            .iter()
+            .filter(|r| r.len() > k)
+            .map(|r| r.iter().zip(&r[k..]).map(|(a, b)| a * b).sum::<f64>())
+            .sum();
+        let rho = c / var;
+        if rho <= 0.0 {
+            break;
+        }
+        sum += rho;
+    }
+    Some(1.0 / (1.0 + 2.0 * sum))
+}
+
+/// Effective number of independent samples of a residual series of N samples:
+/// N / (1 + 2 Σ_{k≥1} ρ_k), summing the autocorrelations ρ_k while they stay positive
+/// (at most 200 lags), clamped to [2, N]. White residuals give ≈ N; an AR(1) with
+/// coefficient φ gives ≈ N(1 − φ)/(1 + φ).
+pub fn effective_samples(residual: &[f64]) -> f64 {
+    let n = residual.len();
+    if n < 4 {
+        return n as f64;
+    }
+    let mean = residual.iter().sum::<f64>() / n as f64;
+    let var: f64 = residual.iter().map(|r| (r - mean) * (r - mean)).sum();
+    if var <= 0.0 {
+        return n as f64;
+    }
+    let mut sum = 0.0;
+    for k in 1..=200.min(n / 4) {
+        let c: f64 = residual
+            .iter()
+            .zip(&residual[k..])
+            .map(|(a, b)| (a - mean) * (b - mean))
+            .sum();
+        let rho = c / var;
+        if rho <= 0.0 {
+            break;
+        }
+        sum += rho;
+    }
+    (n as f64 / (1.0 + 2.0 * sum)).clamp(2.0, n as f64)
+}
+
+/// Why the record cannot identify an effect the workflow did not try, and the motion
+/// that would: (reason, motion).
+pub fn unidentifiable_reason(e: Effect) -> (&'static str, &'static str) {
+    if e.is_rate_effect() {
+        (
+            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0)",
+            separating_motion(Effect::PowerLawStiffness, e),
+        )
+    } else {
+        (
+            "the record never leaves contact: a force offset trades off against the contact point and the elastic law (held at the assumed offset)",
+            "a lift-off out of contact (free-space samples fix the offset)",
+        )
+    }
+}
+
+/// The motion that would separate effects `a` and `b` on a record that cannot.
+pub fn separating_motion(a: Effect, b: Effect) -> &'static str {
+    use Effect::*;
+    let has = |e: Effect| a == e || b == e;
+    let elastic = has(PowerLawStiffness) || has(ExponentialStiffness);
+    if has(Relaxation) {
+        "a hold at constant depth (relaxation decays while the depth stays; rate terms vanish)"
+    } else if has(Inertia) {
+        "a faster tap or oscillation (inertia grows with the acceleration, δ̈)"
+    } else if elastic && (has(DepthDependentDamping) || has(TimeDelay) || has(CoulombFriction)) {
+        "a second indentation speed (a rate effect scales with δ̇, an elastic law does not)"
+    } else if has(TimeDelay) && (has(DepthDependentDamping) || has(CoulombFriction)) {
+        "motion at several frequencies (a delay's force lead grows with frequency, damping's does not)"
+    } else if has(CoulombFriction) {
+        "motion reversals at several speeds (friction's step does not scale with speed)"
+    } else if has(ForceOffset) || has(ContactPointOffset) || has(PlasticSet) {
+        "a lift-off out of contact and back (the offset, the contact point and a set differ there)"
+    } else {
+        "a richer motion: several speeds, a hold and a lift-off"
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
 fn score(
+    data: &Prepared,
     effect: Effect,
     replaces: Option<Effect>,
     fit: Fit,
     current: &Fit,
     options: &Options,
     duration_s: f64,
+    noise_fraction: Option<f64>,
 ) -> Candidate {
-    let delta_bic = fit.bic - current.bic;
+    let n_eff = samples_counted(data, &fit, noise_fraction);
+    let delta_bic = delta_bic(&fit, current, n_eff, 0.0);
     let cv_improvement = 1.0 - fit.cv_rmse / current.cv_rmse;
     let folds_better = fit
         .cv_rmse_per_fold

@@ -8,6 +8,7 @@
 
 use std::collections::BTreeSet;
 
+use estimator_core::laws;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
@@ -92,6 +93,27 @@ impl Effect {
             Effect::CoulombFriction => "force ∝ sign(δ̇)",
             Effect::PlasticSet => "permanent deformation: the unloading contact point moves",
         }
+    }
+
+    /// Which of two effects the record cannot tell apart is named: the one that needs
+    /// less of the motion (0 elastic laws: depth alone; 1 offsets and set: a contact;
+    /// 2 relaxation: time under load; 3 rate effects: a speed that varies).
+    pub fn precedence(self) -> u8 {
+        match self {
+            Effect::PowerLawStiffness | Effect::ExponentialStiffness => 0,
+            Effect::ForceOffset | Effect::ContactPointOffset | Effect::PlasticSet => 1,
+            Effect::Relaxation => 2,
+            Effect::DepthDependentDamping
+            | Effect::Inertia
+            | Effect::TimeDelay
+            | Effect::CoulombFriction => 3,
+        }
+    }
+
+    /// Whether the effect's force depends on the motion's rate (δ̇, δ̈, a delay) rather
+    /// than on depth and time alone.
+    pub fn is_rate_effect(self) -> bool {
+        self.precedence() == 3
     }
 
     /// Effects that replace the same model piece cannot both be present.
@@ -358,17 +380,18 @@ fn design(
         if de <= 0.0 {
             return (0.0, 0.0, 0.0, 0.0);
         }
+        // The core's laws (estimator_core::laws), on δ scaled by the deepest
+        // penetration L for conditioning: L·(δ/L)ⁿ and (e^{bδ} − 1)/b.
         let x = de / l;
         let e = if has(Effect::PowerLawStiffness) {
-            x.powf(nl.n) * l
+            laws::power_law(x, nl.n) * l
         } else if has(Effect::ExponentialStiffness) {
-            let bl = nl.b * l;
-            (bl * x).exp_m1() / bl * l
+            laws::exponential_law(de, nl.b)
         } else {
             de
         };
         let dv = if has(Effect::DepthDependentDamping) {
-            x.powf(nl.q) * v
+            laws::power_law(x, nl.q) * v
         } else {
             v
         };
@@ -426,7 +449,7 @@ fn design(
         };
         gate.push(g > 0.0);
         elastic.push(e);
-        damping.push(dv);
+        damping.push(if data.hold_damping { 0.0 } else { dv });
         if has(Effect::Inertia) {
             inertia.push(g * series(2, i));
         }
@@ -470,7 +493,7 @@ fn design(
     // hundred free-space samples, an error the fit over thousands would otherwise
     // blame on an effect.
     names.push("tare_n");
-    columns.push(vec![1.0; n]);
+    columns.push(vec![if data.hold_tare { 0.0 } else { 1.0 }; n]);
     material.push(false);
     if has(Effect::ForceOffset) {
         // A bias the tare before the first impact missed appeared after it: a zero
@@ -507,10 +530,19 @@ struct Solve {
 /// Most regression columns of any model.
 const MAX_COLUMNS: usize = 8;
 
-/// Ordinary least squares on columns scaled to unit RMS (normal equations, Cholesky with
-/// a tiny ridge for rank-deficient columns such as an all-zero effect). Rows where
-/// `train` is false are left out; the material columns are weighted by `touch` (0
-/// where the probe has left the surface; all 1 when empty).
+/// Columns whose coefficient a passive material keeps non-negative: the elastic and the
+/// damping coefficient (κ, k, m ≥ 0 and λ ≥ 0 at every step, the baseline included).
+fn non_negative(name: &str) -> bool {
+    matches!(name, "elastic" | "damping")
+}
+
+/// Least squares on columns scaled to unit RMS (normal equations, Cholesky with a tiny
+/// ridge for rank-deficient columns such as an all-zero effect), with the
+/// [`non_negative`] coefficients held at 0 where the unconstrained solution makes them
+/// negative (an active set: the most negative is held and the rest re-solved, until none
+/// is negative; a held coefficient has standard error 0). Rows where `train` is false are
+/// left out; the material columns are weighted by `touch` (0 where the probe has left the
+/// surface; all 1 when empty).
 fn least_squares(
     design: &Design,
     y: &[f64],
@@ -549,22 +581,46 @@ fn least_squares(
     let scales: Vec<f64> = (0..p)
         .map(|j| if a[j][j] > 0.0 { a[j][j].sqrt() } else { 1.0 })
         .collect();
-    let a = DMatrix::from_fn(p, p, |j, k| {
-        let v = if j <= k { a[j][k] } else { a[k][j] };
-        v / (scales[j] * scales[k]) + if j == k { 1e-10 } else { 0.0 }
-    });
-    let b = DVector::from_fn(p, |j, _| b[j] / scales[j]);
-    let chol = a.clone().cholesky()?;
-    let x = chol.solve(&b);
-    let rss = (yy - 2.0 * x.dot(&b) + x.dot(&(&a * &x))).max(0.0);
-    let inv = chol.inverse();
-    let beta: Vec<f64> = (0..p).map(|j| x[j] / scales[j]).collect();
-    let covariance = DMatrix::from_fn(p, p, |j, k| inv[(j, k)] / (scales[j] * scales[k]));
-    Some(Solve {
-        beta,
-        covariance,
-        rss,
-    })
+    // An all-zero column (a term held at 0, an effect with no support) is held.
+    let mut held = [false; MAX_COLUMNS];
+    for (j, h) in held.iter_mut().enumerate().take(p) {
+        *h = a[j][j] <= 0.0;
+    }
+    loop {
+        let free = |j: usize| !held[j];
+        let a = DMatrix::from_fn(p, p, |j, k| {
+            if !free(j) || !free(k) {
+                return if j == k { 1.0 } else { 0.0 };
+            }
+            let v = if j <= k { a[j][k] } else { a[k][j] };
+            v / (scales[j] * scales[k]) + if j == k { 1e-10 } else { 0.0 }
+        });
+        let b = DVector::from_fn(p, |j, _| if free(j) { b[j] / scales[j] } else { 0.0 });
+        let chol = a.clone().cholesky()?;
+        let x = chol.solve(&b);
+        let negative = (0..p)
+            .filter(|&j| free(j) && non_negative(design.names[j]) && x[j] < 0.0)
+            .min_by(|&i, &j| x[i].total_cmp(&x[j]));
+        if let Some(j) = negative {
+            held[j] = true;
+            continue;
+        }
+        let rss = (yy - 2.0 * x.dot(&b) + x.dot(&(&a * &x))).max(0.0);
+        let inv = chol.inverse();
+        let beta: Vec<f64> = (0..p).map(|j| x[j] / scales[j]).collect();
+        let covariance = DMatrix::from_fn(p, p, |j, k| {
+            if free(j) && free(k) {
+                inv[(j, k)] / (scales[j] * scales[k])
+            } else {
+                0.0
+            }
+        });
+        return Some(Solve {
+            beta,
+            covariance,
+            rss,
+        });
+    }
 }
 
 /// A fitted model.
@@ -585,8 +641,11 @@ pub struct Fit {
     pub nrmse_percent: f64,
     /// Variance accounted for \[%\].
     pub vaf_percent: f64,
-    /// Bayesian information criterion.
+    /// Bayesian information criterion with every sample counted (the workflow's
+    /// decisions use [`crate::diagnose::delta_bic`], which counts effective samples).
     pub bic: f64,
+    /// Free parameters: regression coefficients plus nonlinear knobs.
+    pub free_parameters: usize,
     /// Blocked cross-validation RMSE \[N\] per fold.
     pub cv_rmse_per_fold: Vec<f64>,
     /// Their mean \[N\].
@@ -612,6 +671,21 @@ impl Fit {
     /// A parameter by name.
     pub fn parameter(&self, name: &str) -> Option<f64> {
         self.parameters.iter().find(|p| p.0 == name).map(|p| p.1)
+    }
+
+    /// The model's instantaneous elastic force F_e(δ) \[N\] at depth `depth_m` \[m\]
+    /// from the contact point: κ·δ (eq. 1), k·δⁿ (eq. 3) or m(e^{bδ} − 1)/b (QLV, eqs.
+    /// 11/13), by the core's laws; 0 for δ ≤ 0. With relaxation this is the
+    /// instantaneous law; the relaxed one is (1 − c) times it.
+    pub fn elastic_force_n(&self, depth_m: f64) -> f64 {
+        let p = |name: &str| self.parameter(name).unwrap_or(0.0);
+        if self.effects.contains(&Effect::PowerLawStiffness) {
+            p("k") * laws::power_law(depth_m, p("n"))
+        } else if self.effects.contains(&Effect::ExponentialStiffness) {
+            p("m") * laws::exponential_law(depth_m, p("b"))
+        } else {
+            p("kappa") * depth_m.max(0.0)
+        }
     }
 }
 
@@ -1064,6 +1138,7 @@ pub fn fit(
         nrmse_percent: nrmse,
         vaf_percent: vaf,
         bic,
+        free_parameters: k,
         cv_rmse: cv.iter().sum::<f64>() / cv.len().max(1) as f64,
         cv_rmse_per_fold: cv,
         prediction,

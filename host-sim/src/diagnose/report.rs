@@ -34,8 +34,9 @@ fn parameters_json(fit: &Fit) -> (Value, Value) {
 
 /// The `--json` object: `{"baseline", "steps": [{"effect", "parameters",
 /// "nrmse_percent_before", "nrmse_percent_after", …}], "effects_added", "final_model",
-/// "nrmse_percent_final", …}`. `file` names the input.
-pub fn json(file: &str, d: &Diagnosis) -> Value {
+/// "nrmse_percent_final", "elastic_force_table", …}`; each step lists the effects the
+/// record cannot tell apart from it (`"indistinguishable_from"`). `file` names the input.
+pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
     let steps: Vec<Value> = d
         .steps
         .iter()
@@ -53,6 +54,11 @@ pub fn json(file: &str, d: &Diagnosis) -> Value {
                 "bic_after": s.after.bic,
                 "cv_rmse_n_before": s.before.cv_rmse,
                 "cv_rmse_n_after": s.after.cv_rmse,
+                "indistinguishable_from": s.indistinguishable_from.iter().map(|i| json!({
+                    "effect": i.effect.id(),
+                    "delta_bic": i.delta_bic,
+                    "separating_motion": i.separating_motion,
+                })).collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -69,7 +75,35 @@ pub fn json(file: &str, d: &Diagnosis) -> Value {
         "final_standard_errors": uncertainties,
         "nrmse_percent_final": d.final_fit.nrmse_percent,
         "vaf_percent_final": d.final_fit.vaf_percent,
+        "elastic_force_table": elastic_force_table(d, data),
+        "noise_sample_fraction": d.noise_sample_fraction,
+        "rate_spread_at_depth": d.rate_spread,
+        "not_identifiable": d.unidentifiable.iter().map(|e| {
+            let (why, motion) = super::unidentifiable_reason(*e);
+            json!({"effect": e.id(), "why": why, "separating_motion": motion})
+        }).collect::<Vec<_>>(),
     })
+}
+
+/// Depths in [`elastic_force_table`].
+pub const ELASTIC_TABLE_POINTS: usize = 64;
+
+/// The final model's elastic law for a master device: `{"depth_m": [...], "force_n":
+/// [...]}`, F_e(δ) ([`Fit::elastic_force_n`]) at [`ELASTIC_TABLE_POINTS`] depths evenly
+/// from 0 to the deepest δ of the record, measured from the model's own contact point.
+pub fn elastic_force_table(d: &Diagnosis, data: &Prepared) -> Value {
+    // δ from the final model's own (refined) contact point.
+    let deepest = (data.depth_m.iter().copied().fold(0.0f64, f64::max)
+        - d.final_fit.nonlinear.contact_m)
+        .max(0.0);
+    let depth: Vec<f64> = (0..ELASTIC_TABLE_POINTS)
+        .map(|i| deepest * i as f64 / (ELASTIC_TABLE_POINTS - 1) as f64)
+        .collect();
+    let force: Vec<f64> = depth
+        .iter()
+        .map(|x| d.final_fit.elastic_force_n(*x))
+        .collect();
+    json!({"depth_m": depth, "force_n": force})
 }
 
 /// Parameters as `name = value ± se` (SI; value only where no error was estimated).
@@ -230,12 +264,23 @@ pub fn markdown(
     );
     let _ = writeln!(
         out,
-        "A candidate is accepted when BIC falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps).\n",
+        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps).\n",
         options.min_bic_drop,
         super::model::FOLDS,
         100.0 * options.min_cv_improvement,
         options.min_folds_better,
         options.max_steps
+    );
+    let _ = writeln!(
+        out,
+        "{}\n",
+        match d.noise_sample_fraction {
+            Some(f) => format!(
+                "The sensor noise on the free-space stretches is coloured: the BIC counts N_eff = {:.3} N effective samples (1 for white noise).",
+                f
+            ),
+            None => "The record has under 100 free-space samples: each candidate's BIC counts the effective samples of its own residual.".to_string(),
+        }
     );
     out.push_str("## Steps\n\n");
     out.push_str("| step | effect added | parameters after (SI, ± 1 s.e.) | NRMSE % before → after | BIC before → after |\n");
@@ -262,6 +307,55 @@ pub fn markdown(
             s.before.bic,
             s.after.bic
         );
+    }
+    let ambiguous: Vec<String> = d
+        .steps
+        .iter()
+        .enumerate()
+        .flat_map(|(i, s)| {
+            s.indistinguishable_from.iter().map(move |a| {
+                let why = if s.effect.precedence() < a.effect.precedence() {
+                    "it needs less of the motion (the physical default)"
+                } else {
+                    "its held-out error is lower, which is weak evidence"
+                };
+                format!(
+                    "- step {}: the record cannot tell `{}` from `{}` (ΔBIC {:+.1}, on effective samples); `{}` is named because {why}. What would separate them: {}.",
+                    i + 1,
+                    s.effect.id(),
+                    a.effect.id(),
+                    a.delta_bic,
+                    s.effect.id(),
+                    a.separating_motion
+                )
+            })
+        })
+        .collect();
+    let mut ambiguous = ambiguous;
+    for (k, e) in d.unidentifiable.iter().enumerate() {
+        let (why, motion) = super::unidentifiable_reason(*e);
+        let spread = if e.is_rate_effect() {
+            format!(
+                " (spread of δ̇ at a depth {:.2} of its RMS, below {})",
+                d.rate_spread,
+                super::RATE_SPREAD_MIN
+            )
+        } else {
+            String::new()
+        };
+        ambiguous.insert(
+            k,
+            format!(
+                "- not tried: `{}`: {why}{spread}. What would identify it: {motion}.",
+                e.id()
+            ),
+        );
+    }
+    if !ambiguous.is_empty() {
+        out.push_str("\n## What this record cannot distinguish\n\n");
+        for line in ambiguous {
+            let _ = writeln!(out, "{line}");
+        }
     }
     out.push_str("\n## Residual RMS per phase [N]\n\n");
     let mut header = "| phase | baseline |".to_string();
@@ -519,7 +613,7 @@ pub fn write(
     std::fs::write(&report, markdown(file, data, d, options, &plots))
         .with_context(|| format!("writing {}", report.display()))?;
     let path = dir.join("diagnosis.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&json(file, d))?)
+    std::fs::write(&path, serde_json::to_string_pretty(&json(file, d, data))?)
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(report)
 }
