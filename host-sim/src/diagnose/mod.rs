@@ -10,9 +10,9 @@
 //! - BIC falls by more than 10 (Kass & Raftery's "very strong" evidence), counting
 //!   effective samples N_eff = N / (1 + 2 Σ ρ_k), the ρ_k the positive autocorrelations
 //!   of the sensor noise, measured on the free-space stretches of the record
-//!   ([`noise_sample_fraction`]; of the candidate's residual when the record has fewer
-//!   than 100 free samples, [`effective_samples`]): real noise is coloured, and N would
-//!   make any slow wiggle of it "significant";
+//!   ([`noise_sample_fraction`]; every sample counts when the record has no free space
+//!   to measure it on): real noise is coloured, and N would make any slow wiggle of it
+//!   "significant";
 //! - the held-out error improves on at least 3 of the 5 contiguous time blocks;
 //! - the mean held-out error improves by at least 1 %.
 //!
@@ -242,7 +242,15 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let hold_tare = one_speed && data.offset_unidentified;
     let unidentifiable: Vec<Effect> = Effect::ALL
         .into_iter()
-        .filter(|e| (one_speed && e.is_rate_effect()) || (hold_tare && *e == Effect::ForceOffset))
+        .filter(|e| match e {
+            Effect::ForceOffset => hold_tare,
+            // δ from a set contact point, (1 − p)·δ on a curve that only loads: the
+            // elastic law's own scale.
+            Effect::PlasticSet => one_speed,
+            // A shifted point for the later contacts: with none, the contact refinement.
+            Effect::ContactPointOffset => data.first_contact_end >= data.len(),
+            _ => one_speed && e.is_rate_effect(),
+        })
         .collect();
     let held;
     let data = if one_speed {
@@ -294,7 +302,6 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
                     effort,
                 )?;
                 Some(score(
-                    data,
                     e,
                     replaces,
                     fit,
@@ -371,7 +378,7 @@ fn choose(
     let significant: Vec<&Candidate> = candidates.iter().filter(|c| c.significant).collect();
     let first = *significant.first()?;
     let floor = rss_floor(data, &first.fit);
-    let n_eff = samples_counted(data, &first.fit, noise_fraction);
+    let n_eff = samples_counted(&first.fit, noise_fraction);
     let tied = |a: &Candidate, b: &Candidate| {
         delta_bic(&a.fit, &b.fit, n_eff, floor).abs() <= options.min_bic_drop
     };
@@ -451,19 +458,26 @@ pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
 pub const RATE_SPREAD_MIN: f64 = 0.2;
 
 /// The effective samples a fit's BIC counts: its N times the noise's
-/// [`noise_sample_fraction`], or its residual's [`effective_samples`] without one.
-fn samples_counted(data: &Prepared, fit: &Fit, noise_fraction: Option<f64>) -> f64 {
+/// [`noise_sample_fraction`], or N when the record has no free space to measure the noise
+/// on (its colour is then unknown: counting by the residual's own autocorrelation would count a
+/// missing effect as coloured noise and reject it).
+fn samples_counted(fit: &Fit, noise_fraction: Option<f64>) -> f64 {
     match noise_fraction {
         Some(f) => (f * fit.samples as f64).max(2.0),
-        None => effective_samples(&fit.residual(data)),
+        None => fit.samples as f64,
     }
 }
 
 /// N_eff / N of the sensor noise: 1 / (1 + 2 Σ ρ_k) over the positive autocorrelations
 /// (at most 50 lags) of the force on the record's free-space stretches (each of at least
-/// 20 fitting samples, its own least-squares line removed). `None` when the record has fewer than 100
-/// such samples.
+/// 20 fitting samples, its own least-squares line removed). `None` when the record has fewer
+/// than 100 such samples or the front end found no free space.
 pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
+    if data.offset_unidentified {
+        // "Free space" behind a contact point the front end could not confirm may still
+        // carry contact force: it measures misfit, not noise.
+        return None;
+    }
     let mut runs: Vec<Vec<f64>> = Vec::new();
     let mut run: Vec<f64> = Vec::new();
     for (c, f) in data.contact.iter().zip(&data.force_n) {
@@ -517,40 +531,20 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
     Some(1.0 / (1.0 + 2.0 * sum))
 }
 
-/// Effective number of independent samples of a residual series of N samples:
-/// N / (1 + 2 Σ_{k≥1} ρ_k), summing the autocorrelations ρ_k while they stay positive
-/// (at most 200 lags), clamped to [2, N]. White residuals give ≈ N; an AR(1) with
-/// coefficient φ gives ≈ N(1 − φ)/(1 + φ).
-pub fn effective_samples(residual: &[f64]) -> f64 {
-    let n = residual.len();
-    if n < 4 {
-        return n as f64;
-    }
-    let mean = residual.iter().sum::<f64>() / n as f64;
-    let var: f64 = residual.iter().map(|r| (r - mean) * (r - mean)).sum();
-    if var <= 0.0 {
-        return n as f64;
-    }
-    let mut sum = 0.0;
-    for k in 1..=200.min(n / 4) {
-        let c: f64 = residual
-            .iter()
-            .zip(&residual[k..])
-            .map(|(a, b)| (a - mean) * (b - mean))
-            .sum();
-        let rho = c / var;
-        if rho <= 0.0 {
-            break;
-        }
-        sum += rho;
-    }
-    (n as f64 / (1.0 + 2.0 * sum)).clamp(2.0, n as f64)
-}
-
 /// Why the record cannot identify an effect the workflow did not try, and the motion
 /// that would: (reason, motion).
 pub fn unidentifiable_reason(e: Effect) -> (&'static str, &'static str) {
-    if e.is_rate_effect() {
+    if e == Effect::PlasticSet {
+        (
+            "the record only loads: a contact point that follows the deepest indentation scales δ by (1 − p), which the elastic law's own parameters absorb",
+            "an unloading (a permanent set shows as a later release)",
+        )
+    } else if e == Effect::ContactPointOffset {
+        (
+            "the record has one contact: a shifted contact point for the later contacts has nothing to act on (the contact point itself is refined in every model)",
+            "a lift-off and a second contact",
+        )
+    } else if e.is_rate_effect() {
         (
             "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0)",
             separating_motion(Effect::PowerLawStiffness, e),
@@ -587,7 +581,6 @@ pub fn separating_motion(a: Effect, b: Effect) -> &'static str {
 
 #[allow(clippy::too_many_arguments)]
 fn score(
-    data: &Prepared,
     effect: Effect,
     replaces: Option<Effect>,
     fit: Fit,
@@ -596,7 +589,7 @@ fn score(
     duration_s: f64,
     noise_fraction: Option<f64>,
 ) -> Candidate {
-    let n_eff = samples_counted(data, &fit, noise_fraction);
+    let n_eff = samples_counted(&fit, noise_fraction);
     let delta_bic = delta_bic(&fit, current, n_eff, 0.0);
     let cv_improvement = 1.0 - fit.cv_rmse / current.cv_rmse;
     let folds_better = fit

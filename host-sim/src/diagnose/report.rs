@@ -279,7 +279,7 @@ pub fn markdown(
                 "The sensor noise on the free-space stretches is coloured: the BIC counts N_eff = {:.3} N effective samples (1 for white noise).",
                 f
             ),
-            None => "The record has under 100 free-space samples: each candidate's BIC counts the effective samples of its own residual.".to_string(),
+            None => "The record has no free space to measure the noise's colour on (under 100 free samples, or none the front end could confirm): the BIC counts every sample.".to_string(),
         }
     );
     out.push_str("## Steps\n\n");
