@@ -575,7 +575,7 @@ pub fn diagnose_file(
         &record.force_n,
         front.force_offset_n,
         front.position_sign * front.contact_position_m,
-        front.noise_n * (front.series.block as f64).sqrt(),
+        front.noise_n * (front.series.averaged as f64).sqrt(),
     )
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;

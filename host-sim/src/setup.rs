@@ -46,8 +46,8 @@ pub fn noise_level(x: &[f64]) -> f64 {
         .windows(3)
         .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
         .collect();
-    d2.sort_by(f64::total_cmp);
-    let median = d2[d2.len() / 2];
+    let mid = d2.len() / 2;
+    let median = *d2.select_nth_unstable_by(mid, f64::total_cmp).1;
     median / 0.6745 / 6f64.sqrt()
 }
 

@@ -234,7 +234,7 @@ pub fn analyse(
         Some(s) => vec![s.signum()],
         None => vec![1.0, -1.0],
     };
-    let noise_n = crate::setup::noise_level(force_n) / (series.block as f64).sqrt();
+    let noise_n = crate::setup::noise_level(force_n) / (series.averaged as f64).sqrt();
     let mut fits: Vec<(f64, LawFit)> = signs
         .iter()
         .filter_map(|&s| {
@@ -702,11 +702,12 @@ fn describe(
     let law = family.describe();
     front.notes.push(format!(
         "contact point {:.6e} m on the file's position axis, from the joint least-squares fit of offset, \
-         contact point and the {law} law to all {} samples ({} points of {} samples); {}",
+         contact point and the {law} law to all {} samples ({} points, one per {} samples, each the mean of {}); {}",
         front.contact_position_m,
         total,
         front.series.len(),
         front.series.block,
+        front.series.averaged,
         match front.contact {
             ContactSource::Onsets { contacts } =>
                 format!("the record shows {contacts} contact onset(s)"),
