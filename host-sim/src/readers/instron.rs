@@ -7,29 +7,32 @@
 //! Conversions: compression is positive into the specimen (mm -> m); load is
 //! compressive-positive \[N\], raw (the load cell offset is kept).
 
+use std::io::BufRead;
 use std::path::Path;
 
 use super::error::{ReadError, ReadErrorKind};
 use super::text::{
-    cell, check_row_length, csv_records, decode_utf8_or_latin1, find_unit_column, lines,
-    parse_cell, short, Samples, FORCE_UNITS, LENGTH_UNITS, TIME_UNITS,
+    check_row_length, decode_field, find_unit_column, parse_field, short, CsvLines, Samples,
+    FORCE_UNITS, LENGTH_UNITS, TIME_UNITS,
 };
 use crate::record::{Format, Record};
 
 const EXPECTED: [&str; 3] = ["Time (s)", "Compression (mm)", "Load (N)"];
 
-pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
-    let text = decode_utf8_or_latin1(bytes);
+pub(crate) fn read(input: impl BufRead, path: &Path) -> Result<Record, ReadError> {
+    let io = |e| ReadError::file(path, ReadErrorKind::Io(e));
+    let mut rows = CsvLines::new(input);
     // The header is the first line that starts with `Time (`; the lines before it are
     // metadata.
     let mut metadata: Vec<String> = Vec::new();
-    let mut header_index = None;
-    for (line, raw) in lines(&text) {
-        if raw.trim_start().starts_with("Time (") {
-            header_index = Some(line - 1);
+    let mut header = None;
+    while rows.advance().map_err(io)? {
+        if rows.field(0).starts_with(b"Time (") {
+            header = Some((rows.line_number(), rows.strings()));
             break;
         }
-        let note = raw.trim().trim_end_matches([';', ',']).trim();
+        let note = decode_field(rows.raw());
+        let note = note.trim().trim_end_matches([';', ',']).trim();
         if !note.is_empty() {
             metadata.push(note.to_owned());
         }
@@ -43,11 +46,7 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
             found,
         },
     };
-    let Some(lines_before) = header_index else {
-        return Err(missing(None, "Time (s)", Vec::new()));
-    };
-    let mut records = csv_records(lines(&text).skip(lines_before)).into_iter();
-    let Some((header_line, header)) = records.next() else {
+    let Some((header_line, header)) = header else {
         return Err(missing(None, "Time (s)", Vec::new()));
     };
     let column = |name: &str, units: &[(&str, f64)], expected: &str| {
@@ -59,11 +58,12 @@ pub(crate) fn read(bytes: &[u8], path: &Path) -> Result<Record, ReadError> {
     let (i_load, load_name, load_scale) = column("Load", FORCE_UNITS, "Load (N)")?;
 
     let mut samples = Samples::new(path, time_name, comp_name, load_name);
-    for (line, cells) in records {
-        check_row_length(path, line, cells.len(), header.len(), header_line)?;
-        let t = parse_cell(path, line, time_name, cell(&cells, i_time))?;
-        let compression = parse_cell(path, line, comp_name, cell(&cells, i_comp))?;
-        let load = parse_cell(path, line, load_name, cell(&cells, i_load))?;
+    while rows.advance().map_err(io)? {
+        let line = rows.line_number();
+        check_row_length(path, line, rows.len(), header.len(), header_line)?;
+        let t = parse_field(path, line, time_name, rows.field(i_time))?;
+        let compression = parse_field(path, line, comp_name, rows.field(i_comp))?;
+        let load = parse_field(path, line, load_name, rows.field(i_load))?;
         samples.push(
             line,
             t * time_scale,

@@ -30,8 +30,26 @@ const DETECT_PREFIX_BYTES: usize = 64 * 1024;
 /// the chosen reader (missing column, non-numeric or non-finite cell, time not strictly
 /// increasing, fewer than 2 samples, ...).
 pub fn read(path: &Path, format: Option<Format>) -> Result<Record, ReadError> {
-    let bytes = std::fs::read(path).map_err(|e| ReadError::file(path, ReadErrorKind::Io(e)))?;
-    read_bytes(&bytes, path, format)
+    use std::io::{Read, Seek};
+    let io = |e| ReadError::file(path, ReadErrorKind::Io(e));
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut prefix = Vec::with_capacity(DETECT_PREFIX_BYTES);
+    (&mut file)
+        .take(DETECT_PREFIX_BYTES as u64)
+        .read_to_end(&mut prefix)
+        .map_err(io)?;
+    let format = resolve(&prefix, path, format)?;
+    file.rewind().map_err(io)?;
+    match format {
+        // The CSV formats are streamed (long logs); the others are small exports.
+        Format::Csv => project_csv::read(std::io::BufReader::with_capacity(1 << 16, file), path),
+        Format::Instron => instron::read(std::io::BufReader::with_capacity(1 << 16, file), path),
+        _ => {
+            let mut bytes = Vec::new();
+            file.read_to_end(&mut bytes).map_err(io)?;
+            read_bytes(&bytes, path, Some(format))
+        }
+    }
 }
 
 /// Like [`read`], on bytes already in memory; `source` names them in the record and in
@@ -44,26 +62,31 @@ pub fn read_bytes(
     source: &Path,
     format: Option<Format>,
 ) -> Result<Record, ReadError> {
-    if bytes.iter().all(u8::is_ascii_whitespace) {
+    match resolve(bytes, source, format)? {
+        Format::Csv => project_csv::read(bytes, source),
+        Format::Jpk => jpk::read(bytes, source),
+        Format::AfmTab => afm_tab::read(bytes, source),
+        Format::Hysitron => hysitron::read(bytes, source),
+        Format::Instron => instron::read(bytes, source),
+    }
+}
+
+/// The format to read `prefix` (the file's first bytes) as: `format` if given, else
+/// [`detect`]ed; an all-whitespace prefix is an empty file.
+fn resolve(prefix: &[u8], source: &Path, format: Option<Format>) -> Result<Format, ReadError> {
+    if prefix.iter().all(u8::is_ascii_whitespace) {
         return Err(ReadError::file(source, ReadErrorKind::Empty));
     }
-    let format = match format {
-        Some(f) => f,
-        None => detect(bytes).ok_or_else(|| {
+    match format {
+        Some(f) => Ok(f),
+        None => detect(prefix).ok_or_else(|| {
             ReadError::file(
                 source,
                 ReadErrorKind::UnknownFormat {
                     tried: Format::ALL.to_vec(),
                 },
             )
-        })?,
-    };
-    match format {
-        Format::Csv => project_csv::read(bytes, source),
-        Format::Jpk => jpk::read(bytes, source),
-        Format::AfmTab => afm_tab::read(bytes, source),
-        Format::Hysitron => hysitron::read(bytes, source),
-        Format::Instron => instron::read(bytes, source),
+        }),
     }
 }
 

@@ -340,43 +340,222 @@ pub(crate) fn segments_from_labels(labels: &[Option<String>]) -> Vec<Segment> {
     segments
 }
 
-/// The records of comma-separated `lines` as `(physical line, cells)`: blank lines and
-/// `#` comment lines skipped, cells trimmed, double-quoted cells unquoted (`""` is a
-/// quote). A record is one physical line (no line breaks inside quotes), which keeps the
-/// line numbers exact (the `csv` crate's record positions skip blank lines).
-pub(crate) fn csv_records<'a>(
-    lines: impl Iterator<Item = (usize, &'a str)>,
-) -> Vec<(usize, Vec<String>)> {
-    lines
-        .filter(|(_, l)| {
-            let t = l.trim();
-            !t.is_empty() && !t.starts_with('#')
-        })
-        .map(|(n, l)| (n, split_csv_line(l)))
-        .collect()
+/// Comma-separated records streamed from a reader, one physical line at a time: blank
+/// lines and `#` comment lines skipped, fields split and unquoted by `csv-core` (the
+/// `csv` crate's parser; `""` inside quotes is a quote), then trimmed. A record is one
+/// physical line, which keeps the line numbers exact (the `csv` crate's own record
+/// positions count neither skipped blank lines nor comments). The line, field and
+/// field-end buffers are reused: no allocation per row.
+pub(crate) struct CsvLines<R> {
+    input: R,
+    parser: csv_core::Reader,
+    line: Vec<u8>,
+    /// Unquoted field bytes of the current record, back to back.
+    fields: Vec<u8>,
+    /// End offset in `fields` of each field.
+    ends: Vec<usize>,
+    count: usize,
+    /// Physical line number of the current record (1-based).
+    number: usize,
 }
 
-/// Splits one CSV line on commas, honouring double quotes.
-fn split_csv_line(line: &str) -> Vec<String> {
-    let mut cells = Vec::new();
-    let mut cell = String::new();
-    let mut chars = line.chars().peekable();
-    let mut in_quotes = false;
-    while let Some(c) = chars.next() {
-        match (c, in_quotes) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                chars.next();
-                cell.push('"');
-            }
-            ('"', true) => in_quotes = false,
-            ('"', false) if cell.trim().is_empty() => {
-                cell.clear();
-                in_quotes = true;
-            }
-            (',', false) => cells.push(std::mem::take(&mut cell).trim().to_owned()),
-            _ => cell.push(c),
+impl<R: std::io::BufRead> CsvLines<R> {
+    pub(crate) fn new(input: R) -> Self {
+        CsvLines {
+            input,
+            parser: csv_core::Reader::new(),
+            line: Vec::with_capacity(256),
+            fields: vec![0; 256],
+            ends: vec![0; 16],
+            count: 0,
+            number: 0,
         }
     }
-    cells.push(cell.trim().to_owned());
-    cells
+
+    /// Advances to the next record; `Ok(false)` at the end of the input.
+    pub(crate) fn advance(&mut self) -> std::io::Result<bool> {
+        loop {
+            self.line.clear();
+            if self.input.read_until(b'\n', &mut self.line)? == 0 {
+                return Ok(false);
+            }
+            self.number += 1;
+            while matches!(self.line.last(), Some(b'\n' | b'\r')) {
+                self.line.pop();
+            }
+            if self.number == 1 && self.line.starts_with(b"\xef\xbb\xbf") {
+                self.line.drain(..3);
+            }
+            let trimmed = self.line.trim_ascii();
+            if trimmed.is_empty() || trimmed.starts_with(b"#") {
+                continue;
+            }
+            self.split();
+            return Ok(true);
+        }
+    }
+
+    /// Splits `line` into `fields`/`ends` (growing them when a line needs more room).
+    fn split(&mut self) {
+        use csv_core::ReadRecordResult as R;
+        self.parser.reset();
+        let (mut consumed, mut written, mut count) = (0, 0, 0);
+        let mut finishing = false;
+        loop {
+            let input: &[u8] = if finishing {
+                &[]
+            } else {
+                &self.line[consumed..]
+            };
+            let (result, nin, nout, nend) = self.parser.read_record(
+                input,
+                &mut self.fields[written..],
+                &mut self.ends[count..],
+            );
+            // csv-core counts field ends from the start of the record, across calls.
+            consumed += nin;
+            written += nout;
+            count += nend;
+            match result {
+                R::InputEmpty => finishing = true,
+                R::OutputFull => self.fields.resize(self.fields.len() * 2, 0),
+                R::OutputEndsFull => self.ends.resize(self.ends.len() * 2, 0),
+                R::Record | R::End => break,
+            }
+        }
+        self.count = count;
+    }
+
+    /// The current record's whole line (without its line break).
+    pub(crate) fn raw(&self) -> &[u8] {
+        &self.line
+    }
+
+    /// Physical line number (1-based) of the current record.
+    pub(crate) fn line_number(&self) -> usize {
+        self.number
+    }
+
+    /// Number of fields of the current record.
+    pub(crate) fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Field `i` of the current record, trimmed; empty past the end.
+    pub(crate) fn field(&self, i: usize) -> &[u8] {
+        if i >= self.count {
+            return &[];
+        }
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        self.fields[start..self.ends[i]].trim_ascii()
+    }
+
+    /// Every field of the current record as text (UTF-8, else Latin-1).
+    pub(crate) fn strings(&self) -> Vec<String> {
+        (0..self.count)
+            .map(|i| decode_field(self.field(i)))
+            .collect()
+    }
+}
+
+/// A field's bytes as text: UTF-8 when valid, else Latin-1.
+pub(crate) fn decode_field(bytes: &[u8]) -> String {
+    match std::str::from_utf8(bytes) {
+        Ok(s) => s.to_owned(),
+        Err(_) => decode_latin1(bytes),
+    }
+}
+
+/// [`parse_cell`] on a field's bytes.
+pub(crate) fn parse_field(
+    path: &Path,
+    line: usize,
+    column: &str,
+    bytes: &[u8],
+) -> Result<f64, ReadError> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_cell(path, line, column, text),
+        Err(_) => parse_cell(path, line, column, &decode_latin1(bytes)),
+    }
+}
+
+/// Segments built while streaming per-sample labels: each maximal run of equal labels is
+/// one segment; unlabelled samples belong to none (as [`segments_from_labels`]).
+#[derive(Default)]
+pub(crate) struct SegmentRuns {
+    segments: Vec<Segment>,
+    /// First sample and raw label of the open run.
+    current: Option<(usize, Vec<u8>)>,
+    samples: usize,
+}
+
+impl SegmentRuns {
+    /// The next sample's label (empty: none).
+    pub(crate) fn push(&mut self, label: &[u8]) {
+        let i = self.samples;
+        self.samples += 1;
+        if matches!(&self.current, Some((_, name)) if name == label) {
+            return;
+        }
+        self.close(i);
+        if !label.is_empty() {
+            self.current = Some((i, label.to_vec()));
+        }
+    }
+
+    fn close(&mut self, end: usize) {
+        if let Some((start, name)) = self.current.take() {
+            self.segments.push(Segment {
+                name: decode_field(&name),
+                start,
+                end,
+            });
+        }
+    }
+
+    /// The segments.
+    pub(crate) fn finish(mut self) -> Vec<Segment> {
+        self.close(self.samples);
+        self.segments
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn streamed_records_keep_physical_line_numbers_quotes_and_long_rows() {
+        let long: Vec<String> = (0..40).map(|i| format!("{i}.{}", "0".repeat(20))).collect();
+        let text = format!(
+            "\u{feff}# comment\r\n\r\ntime_s,\"a,b\" ,\"say \"\"hi\"\"\"\r\n  \n1,2,3\n# c\n{}\n\"open",
+            long.join(",")
+        );
+        let mut rows = CsvLines::new(text.as_bytes());
+        let mut seen = Vec::new();
+        while rows.advance().unwrap() {
+            seen.push((rows.line_number(), rows.strings()));
+        }
+        assert_eq!(seen.len(), 4);
+        assert_eq!(seen[0].0, 3);
+        assert_eq!(seen[0].1, ["time_s", "a,b", "say \"hi\""]);
+        assert_eq!(seen[1], (5, vec!["1".into(), "2".into(), "3".into()]));
+        assert_eq!(seen[2].0, 7);
+        assert_eq!(seen[2].1, long);
+        assert_eq!(seen[3], (8, vec!["open".to_owned()]));
+    }
+
+    #[test]
+    fn segment_runs_match_segments_from_labels() {
+        let labels = ["a", "a", "", "b", "b", "a", "\u{e9}"];
+        let mut runs = SegmentRuns::default();
+        for l in labels {
+            runs.push(l.as_bytes());
+        }
+        let owned: Vec<Option<String>> = labels
+            .iter()
+            .map(|l| (!l.is_empty()).then(|| (*l).to_owned()))
+            .collect();
+        assert_eq!(runs.finish(), segments_from_labels(&owned));
+    }
 }
