@@ -65,14 +65,26 @@ impl Real for f64 {
     fn of(value: f64) -> Self {
         value
     }
+    // f64 is the host's batch arithmetic (the firmware computes in f32): with the `std`
+    // feature it uses the platform's libm, several times faster than the `libm` crate's
+    // portable one on the front end's many power laws; results agree to an ulp or so.
     fn exp(self) -> Self {
-        libm::exp(self)
+        #[cfg(feature = "std")]
+        return f64::exp(self);
+        #[cfg(not(feature = "std"))]
+        return libm::exp(self);
     }
     fn exp_m1(self) -> Self {
-        libm::expm1(self)
+        #[cfg(feature = "std")]
+        return f64::exp_m1(self);
+        #[cfg(not(feature = "std"))]
+        return libm::expm1(self);
     }
     fn ln(self) -> Self {
-        libm::log(self)
+        #[cfg(feature = "std")]
+        return f64::ln(self);
+        #[cfg(not(feature = "std"))]
+        return libm::log(self);
     }
 }
 
@@ -85,6 +97,22 @@ pub fn power_law<T: Real>(depth_m: T, exponent: T) -> T {
     } else {
         T::ZERO
     }
+}
+
+/// [`power_law`] given ln δ instead of δ (`None` for δ ≤ 0): e^{n·ln δ}, for a caller that
+/// evaluates many exponents at the same depths (the batch fits' exponent searches).
+#[inline]
+pub fn power_law_of_ln<T: Real>(ln_depth: Option<T>, exponent: T) -> T {
+    match ln_depth {
+        Some(l) => (exponent * l).exp(),
+        None => T::ZERO,
+    }
+}
+
+/// ln δ for δ > 0, `None` otherwise: the argument [`power_law_of_ln`] takes.
+#[inline]
+pub fn ln_depth<T: Real>(depth_m: T) -> Option<T> {
+    (depth_m > T::ZERO).then(|| depth_m.ln())
 }
 
 /// (e^{bδ} − 1)/b \[m\] for δ > 0, 0 otherwise: the QLV exponential elastic response

@@ -22,7 +22,7 @@
 //! Nothing here panics on data: non-finite samples, logarithms of non-positive values,
 //! a covariance that winds up or turns indefinite each have a [`Status`] flag and a
 //! defined recovery.
-#![cfg_attr(not(test), no_std)]
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 

@@ -259,13 +259,30 @@ impl<'a> Problem<'a> {
         (lo * self.length, hi * self.length)
     }
 
-    /// Columns (g, h) at `knobs`, in scaled units.
-    fn columns(&self, k: Knobs) -> (Vec<f64>, Vec<f64>) {
-        let g: Vec<f64> = self
-            .u
-            .iter()
-            .map(|u| elastic_shape(self.family, u - k.uc, k.n))
-            .collect();
+    /// ln δ of every point at the scaled contact point `uc` for the laws with an exponent
+    /// (`None` out of contact; empty for the linear laws): computed once per contact
+    /// point, shared by every exponent the search tries there.
+    fn depth_logs(&self, uc: f64) -> Vec<Option<f64>> {
+        if self.family.has_exponent() {
+            self.u.iter().map(|u| laws::ln_depth(u - uc)).collect()
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// Columns (g, h) at `knobs`, in scaled units; `logs` from [`Problem::depth_logs`] at
+    /// `knobs.uc`.
+    fn columns(&self, logs: &[Option<f64>], k: Knobs) -> (Vec<f64>, Vec<f64>) {
+        let g: Vec<f64> = if self.family.has_exponent() {
+            logs.iter()
+                .map(|l| laws::power_law_of_ln(*l, k.n))
+                .collect()
+        } else {
+            self.u
+                .iter()
+                .map(|u| elastic_shape(self.family, u - k.uc, k.n))
+                .collect()
+        };
         let h = match self.family {
             _ if !self.damping && !self.family.has_relaxation() => vec![0.0; g.len()],
             LawFamily::KelvinVoigt => g
@@ -286,7 +303,12 @@ impl<'a> Problem<'a> {
     /// unconstrained split is decided by noise; an infinite penalty there would make the
     /// RSS landscape of the exponent and contact point searches jump.
     fn solve(&self, k: Knobs) -> Option<(Vector3<f64>, f64)> {
-        let (g, h) = self.columns(k);
+        self.solve_at(&self.depth_logs(k.uc), k)
+    }
+
+    /// [`Problem::solve`] with the contact point's `logs` already computed.
+    fn solve_at(&self, logs: &[Option<f64>], k: Knobs) -> Option<(Vector3<f64>, f64)> {
+        let (g, h) = self.columns(logs, k);
         let full = self.solve_columns(&g, &h, [true, true])?;
         if full.0[1] >= 0.0 && full.0[2] >= 0.0 {
             return Some(full);
@@ -309,9 +331,10 @@ impl<'a> Problem<'a> {
         let mut free = vec![false; g.len()];
         let mut result = None;
         for round in 0..2 {
-            let mut a = Matrix3::<f64>::zeros();
-            let mut b = Vector3::<f64>::zeros();
-            let mut yy = 0.0;
+            // Normal equations of φ = [1 (free offset) or 0, g, h], summed as scalars.
+            let one = if fixed.is_some() { 0.0 } else { 1.0 };
+            let [mut s1, mut sg, mut sh, mut sgg, mut sgh, mut shh] = [0.0; 6];
+            let [mut sy, mut sgy, mut shy, mut yy] = [0.0; 4];
             for i in 0..g.len() {
                 let y = self.f[i] - fixed.unwrap_or(0.0);
                 let (gi, hi) = if free[i] {
@@ -322,11 +345,19 @@ impl<'a> Problem<'a> {
                         if mask[1] { h[i] } else { 0.0 },
                     )
                 };
-                let phi = Vector3::new(if fixed.is_some() { 0.0 } else { 1.0 }, gi, hi);
-                a += phi * phi.transpose();
-                b += phi * y;
+                s1 += one;
+                sg += one * gi;
+                sh += one * hi;
+                sgg += gi * gi;
+                sgh += gi * hi;
+                shh += hi * hi;
+                sy += one * y;
+                sgy += gi * y;
+                shy += hi * y;
                 yy += y * y;
             }
+            let mut a = Matrix3::new(s1, sg, sh, sg, sgg, sgh, sh, sgh, shh);
+            let b = Vector3::new(sy, sgy, shy);
             if fixed.is_some() {
                 a[(0, 0)] = 1.0;
             }
@@ -360,7 +391,12 @@ impl<'a> Problem<'a> {
     /// ([`Problem::solve`]): a relaxing part that grows instead of relaxing would let the
     /// wrong axis orientation fit a step-and-hold record as well as the right one.
     fn rss(&self, k: Knobs) -> f64 {
-        match self.solve(k) {
+        self.rss_at(&self.depth_logs(k.uc), k)
+    }
+
+    /// [`Problem::rss`] with the contact point's `logs` already computed.
+    fn rss_at(&self, logs: &[Option<f64>], k: Knobs) -> f64 {
+        match self.solve_at(logs, k) {
             Some((theta, rss)) if theta[1] > 0.0 => rss,
             _ => f64::INFINITY,
         }
@@ -372,8 +408,9 @@ impl<'a> Problem<'a> {
         if !self.family.has_exponent() {
             return (1.0, self.rss(Knobs { n: 1.0, ..k }));
         }
+        let logs = self.depth_logs(k.uc);
         golden(exponents.0, exponents.1, iterations, |n| {
-            self.rss(Knobs { n, ..k })
+            self.rss_at(&logs, Knobs { n, ..k })
         })
     }
 

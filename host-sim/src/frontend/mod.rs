@@ -23,6 +23,7 @@ pub mod fit;
 pub mod identifiability;
 pub mod series;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use self::fit::{min_max, LawFamily, LawFit, OffsetTerm, Problem};
@@ -235,8 +236,9 @@ pub fn analyse(
         None => vec![1.0, -1.0],
     };
     let noise_n = crate::setup::noise_level(force_n) / (series.averaged as f64).sqrt();
+    // Both orientations at once: each fit is independent and the bulk of the front end.
     let mut fits: Vec<(f64, LawFit)> = signs
-        .iter()
+        .par_iter()
         .filter_map(|&s| {
             Problem::new(&series, s, family, free_offset)
                 .fit()

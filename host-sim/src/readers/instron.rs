@@ -19,7 +19,8 @@ use crate::record::{Format, Record};
 
 const EXPECTED: [&str; 3] = ["Time (s)", "Compression (mm)", "Load (N)"];
 
-pub(crate) fn read(input: impl BufRead, path: &Path) -> Result<Record, ReadError> {
+/// `expected`: the expected number of samples, to size the columns (0: unknown).
+pub(crate) fn read(input: impl BufRead, path: &Path, expected: usize) -> Result<Record, ReadError> {
     let io = |e| ReadError::file(path, ReadErrorKind::Io(e));
     let mut rows = CsvLines::new(input);
     // The header is the first line that starts with `Time (`; the lines before it are
@@ -58,6 +59,7 @@ pub(crate) fn read(input: impl BufRead, path: &Path) -> Result<Record, ReadError
     let (i_load, load_name, load_scale) = column("Load", FORCE_UNITS, "Load (N)")?;
 
     let mut samples = Samples::new(path, time_name, comp_name, load_name);
+    samples.reserve(expected);
     while rows.advance().map_err(io)? {
         let line = rows.line_number();
         check_row_length(path, line, rows.len(), header.len(), header_line)?;

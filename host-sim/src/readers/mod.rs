@@ -39,11 +39,17 @@ pub fn read(path: &Path, format: Option<Format>) -> Result<Record, ReadError> {
         .read_to_end(&mut prefix)
         .map_err(io)?;
     let format = resolve(&prefix, path, format)?;
+    let length = file.metadata().map_or(0, |m| m.len());
+    // Lines in the file, judged from the prefix: the columns are sized once instead of
+    // doubling (three copies of a column at the last doubling).
+    let lines = prefix.iter().filter(|&&b| b == b'\n').count().max(1);
+    let rows = (length as f64 * lines as f64 / prefix.len().max(1) as f64 * 1.01) as usize;
     file.rewind().map_err(io)?;
+    let stream = || std::io::BufReader::with_capacity(1 << 16, &file);
     match format {
         // The CSV formats are streamed (long logs); the others are small exports.
-        Format::Csv => project_csv::read(std::io::BufReader::with_capacity(1 << 16, file), path),
-        Format::Instron => instron::read(std::io::BufReader::with_capacity(1 << 16, file), path),
+        Format::Csv => project_csv::read(stream(), path, rows),
+        Format::Instron => instron::read(stream(), path, rows),
         _ => {
             let mut bytes = Vec::new();
             file.read_to_end(&mut bytes).map_err(io)?;
@@ -63,11 +69,11 @@ pub fn read_bytes(
     format: Option<Format>,
 ) -> Result<Record, ReadError> {
     match resolve(bytes, source, format)? {
-        Format::Csv => project_csv::read(bytes, source),
+        Format::Csv => project_csv::read(bytes, source, 0),
         Format::Jpk => jpk::read(bytes, source),
         Format::AfmTab => afm_tab::read(bytes, source),
         Format::Hysitron => hysitron::read(bytes, source),
-        Format::Instron => instron::read(bytes, source),
+        Format::Instron => instron::read(bytes, source, 0),
     }
 }
 

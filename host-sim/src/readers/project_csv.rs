@@ -15,7 +15,8 @@ use crate::record::{Format, Record};
 
 const COLUMNS: [&str; 3] = ["time_s", "position_m", "force_n"];
 
-pub(crate) fn read(input: impl BufRead, path: &Path) -> Result<Record, ReadError> {
+/// `expected`: the expected number of samples, to size the columns (0: unknown).
+pub(crate) fn read(input: impl BufRead, path: &Path, expected: usize) -> Result<Record, ReadError> {
     let io = |e| ReadError::file(path, ReadErrorKind::Io(e));
     let mut rows = CsvLines::new(input);
     // Only comments and blank lines: report the missing header.
@@ -29,6 +30,7 @@ pub(crate) fn read(input: impl BufRead, path: &Path) -> Result<Record, ReadError
     let i_seg = header.iter().position(|h| h == "segment");
 
     let mut samples = Samples::new(path, "time_s", "position_m", "force_n");
+    samples.reserve(expected);
     let mut segments = SegmentRuns::default();
     while rows.advance().map_err(io)? {
         let line = rows.line_number();

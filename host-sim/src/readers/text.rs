@@ -201,6 +201,13 @@ impl<'p> Samples<'p> {
         }
     }
 
+    /// Room for `rows` samples (an estimate; the columns still grow past it).
+    pub(crate) fn reserve(&mut self, rows: usize) {
+        self.time_s.reserve_exact(rows);
+        self.position_m.reserve_exact(rows);
+        self.force_n.reserve_exact(rows);
+    }
+
     /// Number of samples so far.
     pub(crate) fn len(&self) -> usize {
         self.time_s.len()
