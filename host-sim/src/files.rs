@@ -373,7 +373,11 @@ pub fn estimate_file(
         ));
     }
     options.estimate_during = phases;
-    let bar = progress(record.len() as u64);
+    let bar = if overrides.show_progress {
+        progress(record.len() as u64)
+    } else {
+        ProgressBar::hidden()
+    };
     let result = runner::run(&options, &depth, &force, &[], &mut |i| {
         bar.set_position(i as u64)
     })

@@ -3,6 +3,7 @@
 //! run over records, plots, and the discrepancy workflow. The `host-sim` binary is the
 //! command-line front end.
 
+pub mod batch;
 pub mod diagnose;
 pub mod files;
 pub mod frontend;

@@ -10,6 +10,7 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use estimator_core::ModelKind;
+use host_sim::batch;
 use host_sim::diagnose::{report as diagnosis_report, Baseline, Options as DiagnoseOptions};
 use host_sim::files::{diagnose_file, estimate_file, FileRun, REAL_FILES};
 use host_sim::phases::Phase;
@@ -46,7 +47,8 @@ enum Command {
         /// Model to estimate.
         #[arg(long, value_enum)]
         model: ModelArg,
-        /// Input files.
+        /// Input files or folders (every file below a folder). Several files run in
+        /// parallel with one progress bar and write summary.csv and summary.json.
         #[arg(required = true)]
         files: Vec<PathBuf>,
         /// File format (auto-detected by default).
@@ -58,6 +60,10 @@ enum Command {
         /// Output folder for estimates, summary and plots.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Folder for the batch summary (summary.csv, summary.json) when several files
+        /// are given (default: --out, else ./out).
+        #[arg(long)]
+        summary: Option<PathBuf>,
         /// Contact-onset threshold (N) (default: from the record's noise and range).
         #[arg(long)]
         onset_threshold_n: Option<f64>,
@@ -93,8 +99,11 @@ enum Command {
     /// simulation and the measurement disagree, add the missing physical effects one at
     /// a time while significant, and report the steps (Markdown, plots, JSON).
     Diagnose {
-        /// Input file: the `time_s,position_m,force_n` CSV or any format `estimate` reads.
-        file: PathBuf,
+        /// Input files or folders: the `time_s,position_m,force_n` CSV or any format
+        /// `estimate` reads. Several files run in parallel, each into its own subfolder of
+        /// --out, with summary.csv and summary.json in --out.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
         /// File format (auto-detected by default).
         #[arg(long, default_value = "auto")]
         format: String,
@@ -171,7 +180,7 @@ fn main() -> ExitCode {
         Some(Command::Telemetry { file }) => decode_telemetry(&file),
         Some(Command::Serial(args)) => host_sim::serial::cli(&args),
         Some(Command::Diagnose {
-            file,
+            files,
             format,
             baseline,
             out,
@@ -189,7 +198,7 @@ fn main() -> ExitCode {
                 onset_threshold_n,
                 ..Overrides::default()
             };
-            diagnose_one(&file, &format, &options, &overrides, until, &out, json)
+            diagnose_files(&files, &format, &options, &overrides, until, &out, json)
         }
         Some(Command::Estimate {
             model,
@@ -197,6 +206,7 @@ fn main() -> ExitCode {
             format,
             json,
             out,
+            summary,
             onset_threshold_n,
             bandwidth_hz,
             tare_samples,
@@ -216,6 +226,7 @@ fn main() -> ExitCode {
                 },
                 memory_s,
                 cold_start,
+                show_progress: true,
             };
             let phases = (!phase.is_empty()).then_some(phase);
             estimate_files(
@@ -224,6 +235,7 @@ fn main() -> ExitCode {
                 &format,
                 json,
                 out.as_deref(),
+                summary.as_deref(),
                 &overrides,
                 phases,
             )
@@ -247,8 +259,10 @@ fn parse_sign(s: &str) -> Result<i8, String> {
     }
 }
 
-fn diagnose_one(
-    path: &Path,
+/// `diagnose` on one file or, for several files or a folder, on each in parallel (see
+/// [`batch`]).
+fn diagnose_files(
+    inputs: &[PathBuf],
     format: &str,
     options: &DiagnoseOptions,
     overrides: &Overrides,
@@ -256,20 +270,123 @@ fn diagnose_one(
     out: &Path,
     json: bool,
 ) -> Result<()> {
+    let files = batch::expand_inputs(inputs)?;
+    if !is_batch(inputs, &files) {
+        let done = diagnose_one(&files[0], format, options, overrides, until, out)?;
+        eprint!("{}", done.text);
+        if json {
+            println!("{}", serde_json::to_string(&done.json)?);
+        }
+        return Ok(());
+    }
+    let stems = batch::unique_stems(&files);
+    let results = batch::run(&files, "diagnose", |i, path| {
+        diagnose_one(
+            path,
+            format,
+            options,
+            overrides,
+            until,
+            &out.join(&stems[i]),
+        )
+    });
+    let rows = report_batch(&files, results, json, |path, done, seconds| {
+        batch::Row::from_diagnosis(path, &done.json, seconds)
+    })?;
+    finish_batch(out, &rows)
+}
+
+/// More than one file, or a folder: the batch path.
+fn is_batch(inputs: &[PathBuf], files: &[PathBuf]) -> bool {
+    files.len() != 1 || inputs.iter().any(|p| p.is_dir())
+}
+
+/// Prints a batch's results in input order (one line each on stderr, the `--json`
+/// objects on stdout) and returns the summary rows.
+fn report_batch(
+    files: &[PathBuf],
+    results: Vec<(Result<batch::Done>, f64)>,
+    json: bool,
+    row: impl Fn(&Path, &batch::Done, f64) -> batch::Row,
+) -> Result<Vec<batch::Row>> {
+    let mut rows = Vec::with_capacity(files.len());
+    for (path, (result, seconds)) in files.iter().zip(results) {
+        match result {
+            Ok(done) => {
+                let r = row(path, &done, seconds);
+                eprintln!(
+                    "{} — {}: NRMSE {}{}",
+                    path.display(),
+                    r.model.as_deref().unwrap_or("-"),
+                    r.nrmse_percent.map_or("-".into(), |v| format!("{v:.3} %")),
+                    if r.warnings.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", {} warning(s)", r.warnings.len())
+                    }
+                );
+                if json {
+                    println!("{}", serde_json::to_string(&done.json)?);
+                }
+                rows.push(r);
+            }
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                rows.push(batch::Row::failed(path, &e, seconds));
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Writes the summary of `rows` to `dir`, says where, and fails if any file failed.
+fn finish_batch(dir: &Path, rows: &[batch::Row]) -> Result<()> {
+    let (json, csv) = batch::write_summary(dir, rows)?;
+    let failed = rows.iter().filter(|r| r.status != "ok").count();
+    let seconds: f64 = rows.iter().map(|r| r.seconds).sum();
+    eprintln!(
+        "{} file(s), {failed} failed, {seconds:.1} s of work; summary: {} and {}",
+        rows.len(),
+        csv.display(),
+        json.display()
+    );
+    if failed > 0 {
+        bail!("{failed} of {} files failed", rows.len());
+    }
+    Ok(())
+}
+
+fn diagnose_one(
+    path: &Path,
+    format: &str,
+    options: &DiagnoseOptions,
+    overrides: &Overrides,
+    until: Option<Phase>,
+    out: &Path,
+) -> Result<batch::Done> {
+    use std::fmt::Write as _;
     let started = Instant::now();
     let run = diagnose_file(path, format, options, overrides, until)?;
     let elapsed = started.elapsed().as_secs_f64();
     let d = &run.diagnosis;
-    eprintln!("{} — diagnosis from {}", path.display(), d.baseline.name());
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "{} — diagnosis from {}",
+        path.display(),
+        d.baseline.name()
+    );
     for note in &run.notes {
-        eprintln!("  · {note}");
+        let _ = writeln!(text, "  · {note}");
     }
-    eprintln!(
+    let _ = writeln!(
+        text,
         "  baseline: NRMSE {:.3} %, VAF {:.2} %",
         d.baseline_fit.nrmse_percent, d.baseline_fit.vaf_percent
     );
     for (i, s) in d.steps.iter().enumerate() {
-        eprintln!(
+        let _ = writeln!(
+            text,
             "  step {}: + {}{}  NRMSE {:.3} % -> {:.3} %, BIC {:.0} -> {:.0}",
             i + 1,
             s.effect.id(),
@@ -281,7 +398,8 @@ fn diagnose_one(
             s.after.bic
         );
         for i in &s.indistinguishable_from {
-            eprintln!(
+            let _ = writeln!(
+                text,
                 "    the record cannot tell it from {} (ΔBIC {:+.1}): needs {}",
                 i.effect.id(),
                 i.delta_bic,
@@ -290,7 +408,8 @@ fn diagnose_one(
         }
     }
     if !d.unidentifiable.is_empty() {
-        eprintln!(
+        let _ = writeln!(
+            text,
             "  not tried (the record cannot identify them; see the report): {}",
             d.unidentifiable
                 .iter()
@@ -299,7 +418,8 @@ fn diagnose_one(
                 .join(", ")
         );
     }
-    eprintln!(
+    let _ = writeln!(
+        text,
         "  final model: {} (NRMSE {:.3} %, VAF {:.2} %) in {elapsed:.2} s",
         d.final_model(),
         d.final_fit.nrmse_percent,
@@ -307,14 +427,11 @@ fn diagnose_one(
     );
     let name = path.display().to_string();
     let report = diagnosis_report::write(out, &name, &run.prepared, d, options)?;
-    eprintln!("  report: {}", report.display());
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string(&diagnosis_report::json(&name, d, &run.prepared))?
-        );
-    }
-    Ok(())
+    let _ = writeln!(text, "  report: {}", report.display());
+    Ok(batch::Done {
+        json: diagnosis_report::json(&name, d, &run.prepared),
+        text,
+    })
 }
 
 fn decode_telemetry(path: &Path) -> Result<()> {
@@ -401,47 +518,62 @@ fn simulate(name: &str, out: &Path) -> Result<Vec<ScenarioOutcome>> {
     Ok(outcomes)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn estimate_files(
     model: ModelKind,
-    files: &[PathBuf],
+    inputs: &[PathBuf],
     format: &str,
     json: bool,
     out: Option<&Path>,
+    summary: Option<&Path>,
     overrides: &Overrides,
     phases: Option<Vec<Phase>>,
 ) -> Result<()> {
-    let mut failures = 0;
-    for path in files {
-        match estimate_file(model, path, format, overrides, phases.clone()) {
-            Ok(run) => {
-                print_run(path, &run);
-                if json {
-                    println!("{}", serde_json::to_string(&run.summary_json(path)?)?);
-                }
-                if let Some(out) = out {
-                    write_file_outputs(out, path, &run)?;
-                }
-            }
-            Err(e) => {
-                eprintln!("error: {e:#}");
-                failures += 1;
-            }
+    let files = batch::expand_inputs(inputs)?;
+    if !is_batch(inputs, &files) {
+        let path = &files[0];
+        let run = estimate_file(model, path, format, overrides, phases)?;
+        eprint!("{}", describe_run(path, &run));
+        if json {
+            println!("{}", serde_json::to_string(&run.summary_json(path)?)?);
         }
+        if let Some(out) = out {
+            write_file_outputs(&out.join(stem(path)), path, &run)?;
+        }
+        return Ok(());
     }
-    if failures > 0 {
-        bail!("{failures} of {} files failed", files.len());
-    }
-    Ok(())
+    let stems = batch::unique_stems(&files);
+    let quiet = Overrides {
+        show_progress: false,
+        ..*overrides
+    };
+    let results = batch::run(&files, "estimate", |i, path| {
+        let run = estimate_file(model, path, format, &quiet, phases.clone())?;
+        if let Some(out) = out {
+            write_file_outputs(&out.join(&stems[i]), path, &run)?;
+        }
+        Ok(batch::Done {
+            json: run.summary_json(path)?,
+            text: describe_run(path, &run),
+        })
+    });
+    let rows = report_batch(&files, results, json, |path, done, seconds| {
+        batch::Row::from_estimate(path, &done.json, seconds)
+    })?;
+    finish_batch(summary.or(out).unwrap_or(Path::new("out")), &rows)
 }
 
-fn print_run(path: &Path, run: &FileRun) {
+/// What `estimate` prints on stderr about one file: notes, warnings, parameters, fit.
+fn describe_run(path: &Path, run: &FileRun) -> String {
+    use std::fmt::Write as _;
+    let mut text = String::new();
     let r = &run.result;
-    eprintln!("{} — {}", path.display(), r.model.name());
+    let _ = writeln!(text, "{} — {}", path.display(), r.model.name());
     for note in &run.notes {
-        eprintln!("  · {note}");
+        let _ = writeln!(text, "  · {note}");
     }
     for warning in &run.warnings {
-        eprintln!("  warning: {warning}");
+        let _ = writeln!(text, "  warning: {warning}");
     }
     for ((name, value), (_, se)) in runner::named(&r.parameters)
         .into_iter()
@@ -454,9 +586,10 @@ fn print_run(path: &Path, run: &FileRun) {
         } else {
             String::new()
         };
-        eprintln!("  {name:>8} = {value:.5e} ± {se:.2e}{verdict}");
+        let _ = writeln!(text, "  {name:>8} = {value:.5e} ± {se:.2e}{verdict}");
     }
-    eprintln!(
+    let _ = writeln!(
+        text,
         "  contact at {:.6e} m, force offset {:.4e} N, {} samples in contact, NRMSE {}, VAF {}",
         run.front_end.contact_position_m,
         run.front_end.force_offset_n,
@@ -464,6 +597,7 @@ fn print_run(path: &Path, run: &FileRun) {
         r.nrmse_percent.map_or("-".into(), |v| format!("{v:.2} %")),
         r.vaf_percent.map_or("-".into(), |v| format!("{v:.1} %")),
     );
+    text
 }
 
 fn stem(path: &Path) -> String {
@@ -471,8 +605,9 @@ fn stem(path: &Path) -> String {
         .map_or("record".into(), |s| s.to_string_lossy().into_owned())
 }
 
-fn write_file_outputs(out: &Path, path: &Path, run: &FileRun) -> Result<()> {
-    let dir = out.join(stem(path));
+/// Per-sample estimates, summary and plots of one file into `dir`.
+fn write_file_outputs(dir: &Path, path: &Path, run: &FileRun) -> Result<()> {
+    let dir = dir.to_path_buf();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let label = run.result.model.name();
     report::write_estimates(
@@ -510,8 +645,8 @@ fn demo(out: &Path, data: &Path) -> Result<()> {
                 phase.map(|p| vec![p]),
             ) {
                 Ok(run) => {
-                    print_run(&path, &run);
-                    write_file_outputs(&out.join("files"), &path, &run)?;
+                    eprint!("{}", describe_run(&path, &run));
+                    write_file_outputs(&out.join("files").join(stem(&path)), &path, &run)?;
                     let params: Vec<String> = runner::named(&run.result.parameters)
                         .into_iter()
                         .map(|(n, v)| format!("{n} = {v:.6e}"))
@@ -549,15 +684,15 @@ fn demo(out: &Path, data: &Path) -> Result<()> {
     for (file, until) in runs {
         let name = stem(Path::new(file)) + until.map_or("", |_| "-loading");
         let path = data.join(file);
-        diagnose_one(
+        let done = diagnose_one(
             &path,
             "auto",
             &options,
             &Overrides::default(),
             until,
             &out.join("diagnose").join(name),
-            false,
         )?;
+        eprint!("{}", done.text);
     }
     eprintln!(
         "done in {:.1} s: scenario plots and tables in {}/scenarios, file results in {}/files, diagnoses in {}/diagnose",

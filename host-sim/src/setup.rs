@@ -24,6 +24,9 @@ pub struct Overrides {
     /// Start the estimator from its defaults, as the firmware does, instead of from the
     /// front end's whole-record fit.
     pub cold_start: bool,
+    /// Show a per-sample progress bar while estimating (the CLI on one file; batches show
+    /// one bar over the files instead).
+    pub show_progress: bool,
 }
 
 /// Largest state-variable filter bandwidth as a fraction of a record's native sample

@@ -300,3 +300,68 @@ fn error_missing_file_and_unknown_format() {
         "{line}"
     );
 }
+
+/// A folder of files (two of the same name below it, one that is not a record) runs as a
+/// batch: every file gets its row, the bad one an error row naming it, the exit code says
+/// one failed, and the summary CSV and JSON agree with each file's own `--json` object.
+#[test]
+fn a_folder_runs_as_a_batch_with_one_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let records = dir.path().join("records");
+    std::fs::create_dir_all(records.join("b")).unwrap();
+    for (name, k) in [("a.csv", 2.0e4), ("b/a.csv", 5.0e4)] {
+        let mut text = String::from("time_s,position_m,force_n\n");
+        for i in 0..4000 {
+            let t = i as f64 * 1e-3;
+            let x = -0.5e-3 + 1.5e-3 * (0.5 - 0.5 * (2.0 * std::f64::consts::PI * t).cos());
+            let v = 1.5e-3 * std::f64::consts::PI * (2.0 * std::f64::consts::PI * t).sin();
+            let f = if x > 0.0 { k * x + 40.0 * v } else { 0.0 };
+            let noise = 0.003 * ((i * 7919 % 1000) as f64 / 1000.0 - 0.5);
+            text.push_str(&format!("{t:.3},{x:.9},{:.6}\n", f + 0.2 + noise));
+        }
+        std::fs::write(records.join(name), text).unwrap();
+    }
+    std::fs::write(records.join("notes.txt"), "not a record\n").unwrap();
+    let summary = dir.path().join("summary");
+    let o = host_sim(&[
+        "estimate",
+        "--model",
+        "kelvin-voigt",
+        "--json",
+        "--summary",
+        summary.to_str().unwrap(),
+        records.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("1 of 3 files failed"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let objects: Vec<serde_json::Value> = String::from_utf8(o.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(objects.len(), 2);
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(summary.join("summary.json")).unwrap())
+            .unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    // sorted paths: a.csv, b/a.csv, notes.txt
+    for (row, (object, k)) in rows.iter().zip(objects.iter().zip([2.0e4, 5.0e4])) {
+        assert_eq!(row["status"], "ok");
+        assert_eq!(row["file"], object["file"]);
+        assert_eq!(row["parameters"]["kappa"], object["parameters"]["kappa"]);
+        let kappa = row["parameters"]["kappa"].as_f64().unwrap();
+        assert!((kappa / k - 1.0).abs() < 0.03, "κ {kappa} for {k}");
+        assert_eq!(row["identifiable"]["kappa"], true);
+    }
+    assert_eq!(rows[2]["status"], "error");
+    let why = rows[2]["error"].as_str().unwrap();
+    assert!(why.contains("notes.txt"), "{why}");
+    let csv = std::fs::read_to_string(summary.join("summary.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 4);
+    assert!(lines[0].contains(",kappa,") && lines[0].contains("kappa_identifiable"));
+    assert!(lines[3].contains(",error,"));
+}

@@ -309,82 +309,112 @@ impl<'a> Problem<'a> {
     /// [`Problem::solve`] with the contact point's `logs` already computed.
     fn solve_at(&self, logs: &[Option<f64>], k: Knobs) -> Option<(Vector3<f64>, f64)> {
         let (g, h) = self.columns(logs, k);
-        let full = self.solve_columns(&g, &h, [true, true])?;
+        let sums = self.normal_sums(&g, &h, None);
+        let full = self.solve_columns(&g, &h, &sums, [true, true])?;
         if full.0[1] >= 0.0 && full.0[2] >= 0.0 {
             return Some(full);
         }
         [[true, false], [false, true]]
             .into_iter()
-            .filter_map(|mask| self.solve_columns(&g, &h, mask))
+            .filter_map(|mask| self.solve_columns(&g, &h, &sums, mask))
             .filter(|(theta, _)| theta[1] >= 0.0 && theta[2] >= 0.0)
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
-    /// Least squares on the columns of `mask` (g, h), in scaled units: (θ = \[F0, a, b\],
-    /// rss). For the memoryless laws, points whose law is negative in the first solution
-    /// are refitted as free.
-    fn solve_columns(&self, g: &[f64], h: &[f64], mask: [bool; 2]) -> Option<(Vector3<f64>, f64)> {
-        let fixed = match self.offset {
+    /// The offset held fixed, in scaled units, if it is.
+    fn fixed_offset(&self) -> Option<f64> {
+        match self.offset {
             OffsetTerm::Free => None,
             OffsetTerm::Fixed(f0) => Some(f0 / self.force),
-        };
-        let mut free = vec![false; g.len()];
-        let mut result = None;
-        for round in 0..2 {
-            // Normal equations of φ = [1 (free offset) or 0, g, h], summed as scalars.
-            let one = if fixed.is_some() { 0.0 } else { 1.0 };
-            let [mut s1, mut sg, mut sh, mut sgg, mut sgh, mut shh] = [0.0; 6];
-            let [mut sy, mut sgy, mut shy, mut yy] = [0.0; 4];
-            for i in 0..g.len() {
-                let y = self.f[i] - fixed.unwrap_or(0.0);
-                let (gi, hi) = if free[i] {
-                    (0.0, 0.0)
-                } else {
-                    (
-                        if mask[0] { g[i] } else { 0.0 },
-                        if mask[1] { h[i] } else { 0.0 },
-                    )
-                };
-                s1 += one;
-                sg += one * gi;
-                sh += one * hi;
-                sgg += gi * gi;
-                sgh += gi * hi;
-                shh += hi * hi;
-                sy += one * y;
-                sgy += gi * y;
-                shy += hi * y;
-                yy += y * y;
-            }
-            let mut a = Matrix3::new(s1, sg, sh, sg, sgg, sgh, sh, sgh, shh);
-            let b = Vector3::new(sy, sgy, shy);
-            if fixed.is_some() {
-                a[(0, 0)] = 1.0;
-            }
-            // A singular system (no contact, or no rate) gets the smallest-norm answer.
-            let theta = a.svd(true, true).solve(&b, 1e-12).ok()?;
-            let rss = (yy - 2.0 * theta.dot(&b) + theta.dot(&(a * theta))).max(0.0);
-            result = Some((theta, rss));
-            if round == 1 || self.family.has_relaxation() {
-                break;
-            }
-            let mut any = false;
-            for i in 0..g.len() {
-                if g[i] > 0.0 && theta[1] * g[i] + theta[2] * h[i] < 0.0 {
-                    free[i] = true;
-                    any = true;
+        }
+    }
+
+    /// Sums of the normal equations of φ = \[1 (free offset) or 0, g, h\] over the points
+    /// not `free`: \[Σ1, Σg, Σh, Σg², Σgh, Σh², Σy, Σgy, Σhy, Σy²\]. A column left out
+    /// of a fit is the same sums with its entries zeroed ([`Problem::solve_sums`]), so one
+    /// pass serves the fit and both one-column fits.
+    fn normal_sums(&self, g: &[f64], h: &[f64], free: Option<&[bool]>) -> [f64; 10] {
+        let fixed = self.fixed_offset();
+        let one = if fixed.is_some() { 0.0 } else { 1.0 };
+        let mut s = [0.0; 10];
+        for i in 0..g.len() {
+            let y = self.f[i] - fixed.unwrap_or(0.0);
+            let (gi, hi) = if free.is_some_and(|f| f[i]) {
+                (0.0, 0.0)
+            } else {
+                (g[i], h[i])
+            };
+            s[0] += one;
+            s[1] += one * gi;
+            s[2] += one * hi;
+            s[3] += gi * gi;
+            s[4] += gi * hi;
+            s[5] += hi * hi;
+            s[6] += one * y;
+            s[7] += gi * y;
+            s[8] += hi * y;
+            s[9] += y * y;
+        }
+        s
+    }
+
+    /// The least-squares solution and RSS of `sums` on the columns of `mask`.
+    fn solve_sums(&self, sums: &[f64; 10], mask: [bool; 2]) -> Option<(Vector3<f64>, f64)> {
+        let mut s = *sums;
+        if !mask[0] {
+            (s[1], s[3], s[4], s[7]) = (0.0, 0.0, 0.0, 0.0);
+        }
+        if !mask[1] {
+            (s[2], s[4], s[5], s[8]) = (0.0, 0.0, 0.0, 0.0);
+        }
+        let mut a = Matrix3::new(s[0], s[1], s[2], s[1], s[3], s[4], s[2], s[4], s[5]);
+        let b = Vector3::new(s[6], s[7], s[8]);
+        if self.fixed_offset().is_some() {
+            a[(0, 0)] = 1.0;
+        }
+        // A singular system (no contact, or no rate) gets the smallest-norm answer.
+        let theta = a.svd(true, true).solve(&b, 1e-12).ok()?;
+        let rss = (s[9] - 2.0 * theta.dot(&b) + theta.dot(&(a * theta))).max(0.0);
+        Some((theta, rss))
+    }
+
+    /// Least squares on the columns of `mask` (g, h), in scaled units, from their
+    /// [`Problem::normal_sums`] `full`: (θ = \[F0, a, b\], rss). For the memoryless laws,
+    /// points whose law is negative in the first solution are refitted as free.
+    fn solve_columns(
+        &self,
+        g: &[f64],
+        h: &[f64],
+        full: &[f64; 10],
+        mask: [bool; 2],
+    ) -> Option<(Vector3<f64>, f64)> {
+        let mut result = self.solve_sums(full, mask)?;
+        if !self.family.has_relaxation() {
+            let theta = result.0;
+            let (a, b) = (
+                if mask[0] { theta[1] } else { 0.0 },
+                if mask[1] { theta[2] } else { 0.0 },
+            );
+            let free: Vec<bool> = g
+                .iter()
+                .zip(h)
+                .map(|(g, h)| *g > 0.0 && a * g + b * h < 0.0)
+                .collect();
+            if free.contains(&true) {
+                let mut sums = self.normal_sums(g, h, Some(&free));
+                if !mask[0] {
+                    (sums[1], sums[3], sums[4], sums[7]) = (0.0, 0.0, 0.0, 0.0);
                 }
-            }
-            if !any {
-                break;
+                if !mask[1] {
+                    (sums[2], sums[4], sums[5], sums[8]) = (0.0, 0.0, 0.0, 0.0);
+                }
+                result = self.solve_sums(&sums, mask)?;
             }
         }
-        result.map(|(mut theta, rss)| {
-            if let Some(f0) = fixed {
-                theta[0] = f0;
-            }
-            (theta, rss)
-        })
+        if let Some(f0) = self.fixed_offset() {
+            result.0[0] = f0;
+        }
+        Some(result)
     }
 
     /// RSS at `k`, infinite when no stiffness is positive. Coefficients are non-negative
