@@ -16,16 +16,15 @@ use serde::Serialize;
 use serde_json::Value;
 
 /// The files named by `inputs`: a file as given, a folder as every regular file below it
-/// (recursively, sorted by path; names starting with `.` skipped).
+/// (recursively, sorted by path; names starting with `.` skipped). A path that does not
+/// exist stays, for the reader to report (as an error row in a batch).
 ///
 /// # Errors
-/// A path that does not exist or a folder that cannot be listed, naming it.
+/// A folder that cannot be listed, naming it.
 pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for input in inputs {
-        let meta = std::fs::metadata(input)
-            .with_context(|| format!("{}: cannot read it", input.display()))?;
-        if meta.is_dir() {
+        if input.is_dir() {
             let mut found = Vec::new();
             walk(input, &mut found)?;
             found.sort();
@@ -330,7 +329,11 @@ mod tests {
             .collect();
         assert_eq!(names, ["a.txt", "b/z.csv", "z.csv"]);
         assert_eq!(unique_stems(&files), ["a", "z", "z-2"]);
-        assert!(expand_inputs(&[dir.join("missing")]).is_err());
+        let missing = dir.join("missing.csv");
+        assert_eq!(
+            expand_inputs(std::slice::from_ref(&missing)).unwrap(),
+            [missing]
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
