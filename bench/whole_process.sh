@@ -21,7 +21,7 @@ tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 
 cargo build --release --quiet -p host-sim
-bin=target/release/host-sim
+bin="${CARGO_TARGET_DIR:-target}/release/host-sim"
 python3 bench/make_log.py "$tmp/log.csv" "$seconds"
 python3 bench/make_instron.py "$tmp/instron" "$files"
 
