@@ -407,12 +407,6 @@ fn diagnose_one(
             );
         }
     }
-    if let Some(ratio) = d.stopped_at_noise_floor {
-        let _ = writeln!(
-            text,
-            "  stopped: the residual is {ratio:.2}× the noise of one fitting sample (nothing above the noise to explain)"
-        );
-    }
     if !d.unidentifiable.is_empty() {
         let _ = writeln!(
             text,

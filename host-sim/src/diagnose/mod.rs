@@ -202,9 +202,6 @@ pub struct Diagnosis {
     /// Effects not tried because the record cannot identify them (the rate effects when
     /// the spread is below [`RATE_SPREAD_MIN`]).
     pub unidentifiable: Vec<Effect>,
-    /// The loop stopped because the current model's residual RMS was already within
-    /// [`AT_NOISE_FLOOR`] of the record's noise (the ratio): nothing left to explain.
-    pub stopped_at_noise_floor: Option<f64>,
 }
 
 impl Diagnosis {
@@ -276,23 +273,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let mut current = baseline_fit.clone();
     let mut steps = Vec::new();
     let mut final_candidates = Vec::new();
-    let mut stopped_at_noise_floor = None;
-    // The smaller of two noise measures: the free-space spread (which a wrong contact
-    // point or offset can inflate with contact force) and the native second-difference
-    // spread / √block (which a steep or upsampled signal can inflate).
-    let floor_noise = free_space_noise_n(data).map(|n| n.min(data.noise_n));
     for _ in 0..options.max_steps {
-        // A model whose residual is already the record's noise has nothing left to
-        // explain: with thousands of samples a sub-noise artefact (an encoder's
-        // quantisation, a rate estimate's lag) still passes the information criterion,
-        // and an inertia or delay fitted to it is not physics.
-        if let Some(noise) = floor_noise.filter(|n| *n > 0.0) {
-            let ratio = residual_rms_n(data, &current) / noise;
-            if ratio <= AT_NOISE_FLOOR {
-                stopped_at_noise_floor = Some(ratio);
-                break;
-            }
-        }
         // Every absent effect; one that replaces the same model piece as a present one
         // (power law ↔ exponential) is tried as a swap: an early choice made while
         // another effect was still missing can be revised.
@@ -382,20 +363,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         noise_sample_fraction: noise_fraction,
         rate_spread,
         unidentifiable,
-        stopped_at_noise_floor,
     })
-}
-
-/// Residual RMS at or below which the model is at the record's noise floor, as a
-/// multiple of the noise of one fitting sample: the smaller of the free-space measure
-/// ([`free_space_noise_n`]; a record without enough free space never stops on it) and
-/// `Prepared::noise_n`.
-pub const AT_NOISE_FLOOR: f64 = 1.1;
-
-/// RMS \[N\] of `fit`'s residual over the samples it fits.
-fn residual_rms_n(data: &Prepared, fit: &Fit) -> f64 {
-    let n = data.len().saturating_sub(fit.start).max(1);
-    (fit.rss / n as f64).sqrt()
 }
 
 /// The significant candidate to name and the others the record cannot tell apart from
@@ -510,7 +478,36 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
         // carry contact force: it measures misfit, not noise.
         return None;
     }
-    let runs = free_runs(data, 20, 0);
+    let mut runs: Vec<Vec<f64>> = Vec::new();
+    let mut run: Vec<f64> = Vec::new();
+    for (c, f) in data.contact.iter().zip(&data.force_n) {
+        if *c {
+            if run.len() >= 20 {
+                runs.push(std::mem::take(&mut run));
+            }
+            run.clear();
+        } else {
+            run.push(*f);
+        }
+    }
+    if run.len() >= 20 {
+        runs.push(run);
+    }
+    // Each stretch detrended (its least-squares line removed): a slow drift of the
+    // free-space force (hydrodynamic drag on an approach, thermal drift) is not noise.
+    for r in &mut runs {
+        let n = r.len() as f64;
+        let tm = (n - 1.0) / 2.0;
+        let m = r.iter().sum::<f64>() / n;
+        let (stt, sty) = r.iter().enumerate().fold((0.0, 0.0), |(a, b), (i, v)| {
+            let t = i as f64 - tm;
+            (a + t * t, b + t * (v - m))
+        });
+        let slope = sty / stt;
+        r.iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v -= m + slope * (i as f64 - tm));
+    }
     if runs.iter().map(Vec::len).sum::<usize>() < 100 {
         return None;
     }
@@ -532,61 +529,6 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
         sum += rho;
     }
     Some(1.0 / (1.0 + 2.0 * sum))
-}
-
-/// The free-space stretches of the fitting samples at least `min_len` long, `trim`
-/// samples cut from each end (a fitting sample next to a contact may hold part of it),
-/// each detrended (its least-squares line removed: a slow drift of the free-space force,
-/// hydrodynamic drag on an approach or thermal drift, is not noise).
-fn free_runs(data: &Prepared, min_len: usize, trim: usize) -> Vec<Vec<f64>> {
-    let mut runs: Vec<Vec<f64>> = Vec::new();
-    let mut run: Vec<f64> = Vec::new();
-    for (c, f) in data.contact.iter().zip(&data.force_n) {
-        if *c {
-            if run.len() >= min_len {
-                runs.push(std::mem::take(&mut run));
-            }
-            run.clear();
-        } else {
-            run.push(*f);
-        }
-    }
-    if run.len() >= min_len {
-        runs.push(run);
-    }
-    for r in &mut runs {
-        r.truncate(r.len() - trim);
-        r.drain(..trim);
-        let n = r.len() as f64;
-        let tm = (n - 1.0) / 2.0;
-        let m = r.iter().sum::<f64>() / n;
-        let (stt, sty) = r.iter().enumerate().fold((0.0, 0.0), |(a, b), (i, v)| {
-            let t = i as f64 - tm;
-            (a + t * t, b + t * (v - m))
-        });
-        let slope = sty / stt;
-        r.iter_mut()
-            .enumerate()
-            .for_each(|(i, v)| *v -= m + slope * (i as f64 - tm));
-    }
-    runs
-}
-
-/// The noise of one fitting sample \[N\] measured where the record is out of contact:
-/// the RMS of the detrended free-space stretches (≥ 7 samples each, the one at each end
-/// dropped, 2 degrees of freedom per stretch removed), so block means of coloured noise count as they are.
-/// `None` with fewer than 100 degrees of freedom or an offset the front end could not
-/// confirm (its "free space" may carry contact force).
-pub fn free_space_noise_n(data: &Prepared) -> Option<f64> {
-    if data.offset_unidentified {
-        return None;
-    }
-    let runs = free_runs(data, 7, 1);
-    let dof: usize = runs.iter().map(|r| r.len() - 2).sum();
-    (dof >= 100).then(|| {
-        let ss: f64 = runs.iter().flatten().map(|v| v * v).sum();
-        (ss / dof as f64).sqrt()
-    })
 }
 
 /// Why the record cannot identify an effect the workflow did not try, and the motion

@@ -78,7 +78,6 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "elastic_force_table": elastic_force_table(d, data),
         "noise_sample_fraction": d.noise_sample_fraction,
         "rate_spread_at_depth": d.rate_spread,
-        "stopped_at_noise_floor": d.stopped_at_noise_floor,
         "not_identifiable": d.unidentifiable.iter().map(|e| {
             let (why, motion) = super::unidentifiable_reason(*e);
             json!({"effect": e.id(), "why": why, "separating_motion": motion})
@@ -283,14 +282,6 @@ pub fn markdown(
             None => "The record has no free space to measure the noise's colour on (under 100 free samples, or none the front end could confirm): the BIC counts every sample.".to_string(),
         }
     );
-    if let Some(ratio) = d.stopped_at_noise_floor {
-        let _ = writeln!(
-            out,
-            "The workflow stopped after {} step(s): the model's residual RMS is {ratio:.2}× the noise of one fitting sample (≤ {}), so nothing above the sensor's noise is left to explain.\n",
-            d.steps.len(),
-            super::AT_NOISE_FLOOR
-        );
-    }
     out.push_str("## Steps\n\n");
     out.push_str("| step | effect added | parameters after (SI, ± 1 s.e.) | NRMSE % before → after | BIC before → after |\n");
     out.push_str("|---|---|---|---|---|\n");
