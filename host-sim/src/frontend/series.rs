@@ -165,15 +165,7 @@ fn native_rate(time_s: &[f64], position: &[f64], starts: &[usize], averaged: usi
     let mut last = Vec::new();
     for &h in &RATE_HALF_WINDOWS_S {
         let k = ((h / dt).round() as usize).max(1);
-        let at = |i: usize| {
-            let (lo, hi) = (i.saturating_sub(k), (i + k).min(n - 1));
-            let span = time_s[hi] - time_s[lo];
-            if span > 0.0 {
-                (position[hi] - position[lo]) / span
-            } else {
-                0.0
-            }
-        };
+        let at = |i: usize| symmetric_difference(time_s, position, i, k);
         let rate: Vec<f64> = starts
             .iter()
             .map(|&s| {
@@ -231,16 +223,20 @@ pub fn symmetric_rate(time_s: &[f64], position: &[f64], half_window_s: f64) -> V
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let k = ((half_window_s / dt).round() as usize).max(1);
     (0..n)
-        .map(|i| {
-            let (lo, hi) = (i.saturating_sub(k), (i + k).min(n - 1));
-            let span = time_s[hi] - time_s[lo];
-            if span > 0.0 {
-                (position[hi] - position[lo]) / span
-            } else {
-                0.0
-            }
-        })
+        .map(|i| symmetric_difference(time_s, position, i, k))
         .collect()
+}
+
+/// (x\[i+k\] − x\[i−k\]) / (t\[i+k\] − t\[i−k\]), clipped at the ends; 0 over no time.
+fn symmetric_difference(time_s: &[f64], position: &[f64], i: usize, k: usize) -> f64 {
+    let n = time_s.len();
+    let (lo, hi) = (i.saturating_sub(k), (i + k).min(n - 1));
+    let span = time_s[hi] - time_s[lo];
+    if span > 0.0 {
+        (position[hi] - position[lo]) / span
+    } else {
+        0.0
+    }
 }
 
 #[cfg(test)]
