@@ -401,13 +401,7 @@ impl<'a> Problem<'a> {
                 .map(|(g, h)| *g > 0.0 && a * g + b * h < 0.0)
                 .collect();
             if free.contains(&true) {
-                let mut sums = self.normal_sums(g, h, Some(&free));
-                if !mask[0] {
-                    (sums[1], sums[3], sums[4], sums[7]) = (0.0, 0.0, 0.0, 0.0);
-                }
-                if !mask[1] {
-                    (sums[2], sums[4], sums[5], sums[8]) = (0.0, 0.0, 0.0, 0.0);
-                }
+                let sums = self.normal_sums(g, h, Some(&free));
                 result = self.solve_sums(&sums, mask)?;
             }
         }

@@ -109,22 +109,14 @@ impl Series {
 /// Samples averaged per point: `block`, halved while the 99th percentile over the blocks
 /// of the position's travel across a run exceeds [`MAX_RUN_TRAVEL`] of its range.
 fn run_length(position: &[f64], block: usize, points: usize) -> usize {
-    let (lo, hi) = position
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-            (l.min(x), h.max(x))
-        });
+    let (lo, hi) = super::fit::min_max(position);
     let limit = MAX_RUN_TRAVEL * (hi - lo);
     let mut m = block;
     while m > 1 {
         let mut travel: Vec<f64> = (0..points)
             .map(|b| {
                 let r = &position[b * block..(b * block + m).min(position.len())];
-                let (l, h) = r
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                        (l.min(x), h.max(x))
-                    });
+                let (l, h) = super::fit::min_max(r);
                 h - l
             })
             .collect();
