@@ -30,6 +30,7 @@ pub mod any;
 pub mod conditioning;
 pub mod error;
 pub mod estimator;
+mod fmath;
 pub mod hammerstein;
 pub mod hunt_crossley;
 pub mod kelvin_voigt;

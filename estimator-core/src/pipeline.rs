@@ -9,6 +9,7 @@ use crate::conditioning::{
 };
 use crate::error::{positive, ConfigError};
 use crate::estimator::{ContactSample, Estimate, Estimator};
+use crate::fmath::max;
 use crate::monitor::{ResidualMonitor, ResidualMonitorConfig};
 use crate::Status;
 
@@ -458,7 +459,7 @@ impl<E: Estimator> Pipeline<E> {
     /// becomes the current contact's onset, placed by [`Pipeline::follow_exponent`].
     fn refine(&mut self, x_f: f32, tared_f: f32, v_f: f32, onset_threshold: f32) {
         // The elastic part F/(1 + (λ/k)·δ̇) of a damped power-law onset.
-        let damping = 1.0 + self.estimator.onset_damping_ratio().max(0.0) * v_f;
+        let damping = 1.0 + max(self.estimator.onset_damping_ratio(), 0.0) * v_f;
         let point = RisePoint {
             position_m: x_f,
             force_n: if damping > 0.1 {
