@@ -48,6 +48,8 @@ pub mod zener;
 
 pub use any::{AnyEstimator, AnyParameters, EstimatorSettings, ModelKind};
 pub use error::ConfigError;
-pub use estimator::{ContactSample, Estimate, Estimator, Scaling};
-pub use pipeline::{Pipeline, PipelineConfig, PipelineOutput, RawSample, SignalConditioning};
+pub use estimator::{ContactSample, Estimate, Estimator, SampleUpdate, Scaling};
+pub use pipeline::{
+    Pipeline, PipelineConfig, PipelineOutput, PipelineUpdate, RawSample, SignalConditioning,
+};
 pub use status::Status;
