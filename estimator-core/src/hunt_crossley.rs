@@ -717,3 +717,42 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
         let _ = self.refresh();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Within the bounds the double stage skips the conversion, so every value inside
+    /// them must convert to finite SI, for the paper's units and for extreme ones.
+    #[test]
+    fn values_within_the_finite_bounds_convert_to_finite_si() {
+        let g = HuntCrossleyGuards::default();
+        for (length_m, force_n) in [
+            (1.0e-3, 1.0),
+            (1.0e-9, 1.0e-9),
+            (1.0e3, 1.0e6),
+            (1.0e-6, 1.0e3),
+        ] {
+            let s = Scaling { length_m, force_n };
+            let ln_length = libm::logf(length_m);
+            let (k_max, lambda_max) = certainly_finite_bounds(&s, ln_length, &g);
+            assert!(k_max > 0.0 && lambda_max > 0.0, "{length_m} {force_n}");
+            for i in 0..=20 {
+                let n = g.min_exponent + (g.max_exponent - g.min_exponent) * i as f32 / 20.0;
+                for (k, lambda) in [(k_max, lambda_max), (-k_max, -lambda_max), (k_max, 0.0)] {
+                    let p = hunt_crossley_to_si(&s, ln_length, k, lambda, n);
+                    assert!(p.is_finite(), "{length_m} {force_n} n={n}: {p:?}");
+                }
+            }
+        }
+        // Units with which some exponent overflows the conversion give no bound.
+        let s = Scaling {
+            length_m: 1.0e-30,
+            force_n: 1.0,
+        };
+        assert_eq!(
+            certainly_finite_bounds(&s, libm::logf(1.0e-30), &g),
+            (0.0, 0.0)
+        );
+    }
+}
