@@ -2,7 +2,7 @@
 //! firmware can select a model from a setting without heap or trait objects.
 
 use crate::error::ConfigError;
-use crate::estimator::{ContactSample, Estimate, Estimator, Scaling};
+use crate::estimator::{ContactSample, Estimator, SampleUpdate, Scaling};
 use crate::hammerstein::{Hammerstein1, Hammerstein2, HammersteinConfig};
 use crate::hunt_crossley::{
     HuntCrossleyConfig, HuntCrossleyEstimator, HuntCrossleyParameters,
@@ -326,14 +326,6 @@ impl AnyEstimator {
     }
 }
 
-fn wrap<P: Copy>(e: Estimate<P>, f: impl FnOnce(&P) -> AnyParameters) -> Estimate<AnyParameters> {
-    Estimate {
-        parameters: f(&e.parameters),
-        predicted_force_n: e.predicted_force_n,
-        status: e.status,
-    }
-}
-
 /// Calls `$body` with `$e` bound to the inner estimator, and converts its parameters.
 macro_rules! dispatch {
     ($self:expr, $e:ident => $body:expr, $conv:ident) => {
@@ -357,8 +349,15 @@ fn convert<P>(p: P, f: impl FnOnce(&P) -> AnyParameters) -> AnyParameters {
 impl Estimator for AnyEstimator {
     type Parameters = AnyParameters;
 
-    fn step(&mut self, sample: &ContactSample) -> Estimate<AnyParameters> {
-        dispatch!(self, e => e.step(sample), wrap)
+    fn update(&mut self, sample: &ContactSample) -> SampleUpdate {
+        match self {
+            AnyEstimator::KelvinVoigt(e) => e.update(sample),
+            AnyEstimator::Zener(e) => e.update(sample),
+            AnyEstimator::HuntCrossley(e) => e.update(sample),
+            AnyEstimator::HuntCrossleySingleStage(e) => e.update(sample),
+            AnyEstimator::Hammerstein1(e) => e.update(sample),
+            AnyEstimator::Hammerstein2(e) => e.update(sample),
+        }
     }
 
     fn parameters(&self) -> AnyParameters {

@@ -12,7 +12,7 @@
 use nalgebra::{SVector, Vector2};
 
 use crate::error::{non_negative, ConfigError};
-use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
+use crate::estimator::{finite_or, ContactSample, Estimator, SampleUpdate, Scaling};
 use crate::rls::{Rls, RlsConfig};
 use crate::Status;
 
@@ -252,12 +252,11 @@ impl<const R: usize, const NP: usize> HammersteinEstimator<R, NP> {
 impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> {
     type Parameters = HammersteinParameters<R>;
 
-    fn step(&mut self, sample: &ContactSample) -> Estimate<HammersteinParameters<R>> {
+    fn update(&mut self, sample: &ContactSample) -> SampleUpdate {
         let s = self.config.scaling;
         let (d, v, f) = s.to_internal(sample);
         if !sample.is_finite() {
-            return Estimate {
-                parameters: self.parameters(),
+            return SampleUpdate {
                 predicted_force_n: 0.0,
                 status: Status::NON_FINITE_INPUT,
             };
@@ -319,8 +318,7 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
             None => status |= Status::NONPHYSICAL,
         }
 
-        Estimate {
-            parameters: self.parameters(),
+        SampleUpdate {
             predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }

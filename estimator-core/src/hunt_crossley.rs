@@ -4,7 +4,7 @@
 use nalgebra::{Vector2, Vector3};
 
 use crate::error::{check, non_negative, ConfigError};
-use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
+use crate::estimator::{finite_or, ContactSample, Estimator, SampleUpdate, Scaling};
 use crate::rls::{Rls, RlsConfig};
 use crate::Status;
 
@@ -182,7 +182,8 @@ impl HuntCrossleyConfig {
 impl HuntCrossleyParameters {
     /// `true` when k, λ and n are all finite.
     pub fn is_finite(&self) -> bool {
-        self.k.is_finite() && self.lambda.is_finite() && self.n.is_finite()
+        // v·0 is 0 for finite v, NaN otherwise: one comparison (1 kHz path).
+        self.k * 0.0 + self.lambda * 0.0 + self.n * 0.0 == 0.0
     }
 }
 
@@ -202,9 +203,16 @@ fn hunt_crossley_to_internal(s: &Scaling, p: &HuntCrossleyParameters) -> Option<
 /// the force it removes before the log-regression.
 const MAX_DAMPING_SHARE: f32 = 0.5;
 
-/// SI value of an internal Hunt-Crossley parameter set (k_s, λ_s, n).
-fn hunt_crossley_to_si(s: &Scaling, k: f32, lambda: f32, n: f32) -> HuntCrossleyParameters {
-    let l_pow_n = libm::expf(n * libm::logf(s.length_m));
+/// SI value of an internal Hunt-Crossley parameter set (k_s, λ_s, n); `ln_length` is
+/// ln(`s.length_m`), taken once by each estimator's constructor.
+fn hunt_crossley_to_si(
+    s: &Scaling,
+    ln_length: f32,
+    k: f32,
+    lambda: f32,
+    n: f32,
+) -> HuntCrossleyParameters {
+    let l_pow_n = libm::expf(n * ln_length);
     HuntCrossleyParameters {
         k: k * s.force_n / l_pow_n,
         lambda: lambda * s.force_n / (l_pow_n * s.length_m),
@@ -227,10 +235,42 @@ pub struct HuntCrossleyEstimator {
     /// θ2 = \[c, n\]; c stays 0 unless `exponent_intercept` (its regressor is then 0).
     gamma2: Rls<2>,
     intercept_regressor: f32,
+    /// ln of the internal length unit, for the SI conversion.
+    ln_length: f32,
     min_depth: f32,
     min_force: f32,
-    /// Last finite SI parameters (held when a conversion overflows).
-    held: HuntCrossleyParameters,
+    /// Last internal (k_s, λ_s, n) whose SI values are finite (held when a conversion
+    /// would overflow); [`Estimator::parameters`] converts them on demand.
+    held_internal: [f32; 3],
+    /// |k_s| and |λ_s| up to which the SI values are certainly finite (see
+    /// [`certainly_finite_bounds`]).
+    finite_bounds: (f32, f32),
+}
+
+/// Largest |k_s| and |λ_s| (internal units) whose SI values, (k_s·F0)/Lⁿ and
+/// (λ_s·F0)/(Lⁿ·L) as [`hunt_crossley_to_si`] computes them, are finite for every exponent
+/// in the guards' range: the products and quotients are bounded by f32::MAX/4 (the 4
+/// covers rounding). (0, 0) when the units allow no such bound. It lets the double stage
+/// flag an overflowing conversion without converting every sample.
+fn certainly_finite_bounds(s: &Scaling, ln_length: f32, g: &HuntCrossleyGuards) -> (f32, f32) {
+    let (lo, hi) = (
+        libm::expf(g.min_exponent * ln_length),
+        libm::expf(g.max_exponent * ln_length),
+    );
+    let l_pow_min = if lo < hi { lo } else { hi };
+    let l_pow_min_l = l_pow_min * s.length_m;
+    if !(l_pow_min >= f32::MIN_POSITIVE && l_pow_min_l >= f32::MIN_POSITIVE) {
+        return (0.0, 0.0);
+    }
+    let bound = |divisor: f32| {
+        let g = 4.0 * s.force_n * (1.0 / divisor).max(1.0);
+        if g.is_finite() {
+            f32::MAX / g
+        } else {
+            0.0
+        }
+    };
+    (bound(l_pow_min), bound(l_pow_min_l))
 }
 
 impl HuntCrossleyEstimator {
@@ -244,6 +284,7 @@ impl HuntCrossleyEstimator {
         if config.hold_damping {
             gamma1.hold(1, 0.0);
         }
+        let ln_length = libm::logf(config.scaling.length_m);
         Ok(HuntCrossleyEstimator {
             gamma1,
             gamma2: Rls::try_with_initial(
@@ -251,9 +292,11 @@ impl HuntCrossleyEstimator {
                 Vector2::new(0.0, config.initial_exponent),
             )?,
             intercept_regressor: if config.exponent_intercept { 1.0 } else { 0.0 },
+            ln_length,
             min_depth: config.guards.min_depth_m / config.scaling.length_m,
             min_force: config.guards.min_force_n / config.scaling.force_n,
-            held: hunt_crossley_to_si(&config.scaling, 0.0, 0.0, config.initial_exponent),
+            held_internal: [0.0, 0.0, config.initial_exponent],
+            finite_bounds: certainly_finite_bounds(&config.scaling, ln_length, &config.guards),
             config,
         })
     }
@@ -262,12 +305,21 @@ impl HuntCrossleyEstimator {
         self.gamma2.theta()[1]
     }
 
-    /// Refreshes the held SI parameters; `NONPHYSICAL` if they do not fit in f32.
+    /// Holds the current estimate unless its SI values do not fit in f32 (`NONPHYSICAL`).
+    /// Within [`certainly_finite_bounds`] they fit without converting.
     fn refresh(&mut self) -> Status {
         let th = self.gamma1.theta();
-        let si = hunt_crossley_to_si(&self.config.scaling, th[0], th[1], self.exponent());
-        if si.is_finite() {
-            self.held = si;
+        let n = self.exponent();
+        let g = &self.config.guards;
+        let certain = th[0].abs() <= self.finite_bounds.0
+            && th[1].abs() <= self.finite_bounds.1
+            && n >= g.min_exponent
+            && n <= g.max_exponent;
+        if certain
+            || hunt_crossley_to_si(&self.config.scaling, self.ln_length, th[0], th[1], n)
+                .is_finite()
+        {
+            self.held_internal = [th[0], th[1], n];
             Status::empty()
         } else {
             Status::NONPHYSICAL
@@ -278,19 +330,17 @@ impl HuntCrossleyEstimator {
 impl Estimator for HuntCrossleyEstimator {
     type Parameters = HuntCrossleyParameters;
 
-    fn step(&mut self, sample: &ContactSample) -> Estimate<HuntCrossleyParameters> {
+    fn update(&mut self, sample: &ContactSample) -> SampleUpdate {
         let s = self.config.scaling;
         let (d, v, f) = s.to_internal(sample);
         if !sample.is_finite() {
-            return Estimate {
-                parameters: self.parameters(),
+            return SampleUpdate {
                 predicted_force_n: 0.0,
                 status: Status::NON_FINITE_INPUT,
             };
         }
         if d <= self.min_depth {
-            return Estimate {
-                parameters: self.parameters(),
+            return SampleUpdate {
                 predicted_force_n: 0.0,
                 status: Status::GUARD_DEPTH,
             };
@@ -314,17 +364,18 @@ impl Estimator for HuntCrossleyEstimator {
         // as δ grows, and n̂ stays where it started.
         // The ratio (λ̂/k̂)·δ̇ is bounded to ±MAX_DAMPING_SHARE: early in a contact, k̂ and λ̂
         // come from a few collinear samples and their ratio can be anything.
-        let damping_term = if self.config.exponent_intercept {
-            libm::log1pf((th1[1] / th1[0] * v).clamp(-MAX_DAMPING_SHARE, MAX_DAMPING_SHARE))
-        } else {
-            libm::logf(impedance)
-        };
+        // y2 = ln F − ln(damping part) is taken as one logarithm of the quotient.
         if f <= self.min_force {
             status |= Status::GUARD_FORCE;
         } else if impedance <= 0.0 || th1[0] <= 0.0 {
             status |= Status::GUARD_IMPEDANCE;
         } else {
-            let y2 = libm::logf(f) - damping_term;
+            let damping_part = if self.config.exponent_intercept {
+                1.0 + (th1[1] / th1[0] * v).clamp(-MAX_DAMPING_SHARE, MAX_DAMPING_SHARE)
+            } else {
+                impedance
+            };
+            let y2 = libm::logf(f / damping_part);
             let beta2 = self.config.stage2.forgetting.beta(abs_error_n);
             let phi2 = Vector2::new(self.intercept_regressor, ln_d);
             status |= self.gamma2.update(&phi2, y2, beta2).status;
@@ -337,29 +388,30 @@ impl Estimator for HuntCrossleyEstimator {
             }
         }
         status |= self.refresh();
-        let parameters = self.held;
-        if parameters.k < 0.0 || parameters.lambda < 0.0 {
+        // The SI values have the signs of the internal ones (positive units).
+        if self.held_internal[0] < 0.0 || self.held_internal[1] < 0.0 {
             status |= Status::NONPHYSICAL;
         }
-        Estimate {
-            parameters,
+        SampleUpdate {
             predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }
     }
 
     fn parameters(&self) -> HuntCrossleyParameters {
-        self.held
+        let [k, lambda, n] = self.held_internal;
+        hunt_crossley_to_si(&self.config.scaling, self.ln_length, k, lambda, n)
     }
 
     fn onset_exponent(&self) -> Option<f32> {
-        Some(self.held.n)
+        Some(self.held_internal[2])
     }
 
     fn onset_damping_ratio(&self) -> f32 {
-        let p = self.held;
-        if p.k > 0.0 {
-            p.lambda / p.k
+        // λ/k in SI is λ_s/(k_s·L): the pipeline asks every sample, without a conversion.
+        let [k, lambda, _] = self.held_internal;
+        if k > 0.0 {
+            lambda / (k * self.config.scaling.length_m)
         } else {
             0.0
         }
@@ -367,7 +419,13 @@ impl Estimator for HuntCrossleyEstimator {
 
     fn standard_errors(&self) -> HuntCrossleyParameters {
         let se1 = self.gamma1.standard_errors();
-        let mut p = hunt_crossley_to_si(&self.config.scaling, se1[0], se1[1], self.exponent());
+        let mut p = hunt_crossley_to_si(
+            &self.config.scaling,
+            self.ln_length,
+            se1[0],
+            se1[1],
+            self.exponent(),
+        );
         p.n = self.gamma2.standard_errors()[1];
         p
     }
@@ -486,6 +544,8 @@ pub struct SingleStageHuntCrossleyEstimator {
     rls: Rls<3>,
     /// λ̂/k̂ averaged over [`RATIO_SMOOTHING_UPDATES`], for the linearisation correction.
     smoothed_ratio: f32,
+    /// ln of the internal length unit, for the SI conversion.
+    ln_length: f32,
     min_depth: f32,
     min_force: f32,
     /// Last finite SI parameters (held when a conversion overflows).
@@ -504,19 +564,21 @@ impl SingleStageHuntCrossleyEstimator {
         if config.hold_damping {
             rls.hold(1, 0.0);
         }
+        let ln_length = libm::logf(config.scaling.length_m);
         Ok(SingleStageHuntCrossleyEstimator {
             rls,
             smoothed_ratio: 0.0,
+            ln_length,
             min_depth: config.guards.min_depth_m / config.scaling.length_m,
             min_force: config.guards.min_force_n / config.scaling.force_n,
-            held: hunt_crossley_to_si(&config.scaling, 1.0, 0.0, 1.0),
+            held: hunt_crossley_to_si(&config.scaling, ln_length, 1.0, 0.0, 1.0),
             config,
         })
     }
 
     fn refresh(&mut self) -> Status {
         let (k, lambda, n) = self.internal();
-        let si = hunt_crossley_to_si(&self.config.scaling, k, lambda, n);
+        let si = hunt_crossley_to_si(&self.config.scaling, self.ln_length, k, lambda, n);
         if si.is_finite() {
             self.held = si;
             Status::empty()
@@ -535,7 +597,7 @@ impl SingleStageHuntCrossleyEstimator {
 impl Estimator for SingleStageHuntCrossleyEstimator {
     type Parameters = HuntCrossleyParameters;
 
-    fn step(&mut self, sample: &ContactSample) -> Estimate<HuntCrossleyParameters> {
+    fn update(&mut self, sample: &ContactSample) -> SampleUpdate {
         let s = self.config.scaling;
         let (d, v, f) = s.to_internal(sample);
         let mut status = Status::empty();
@@ -545,8 +607,7 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
             status |= Status::GUARD_DEPTH;
         }
         if !status.is_empty() {
-            return Estimate {
-                parameters: self.parameters(),
+            return SampleUpdate {
                 predicted_force_n: 0.0,
                 status,
             };
@@ -604,8 +665,7 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
         if parameters.lambda < 0.0 {
             status |= Status::NONPHYSICAL;
         }
-        Estimate {
-            parameters,
+        SampleUpdate {
             predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }
@@ -636,7 +696,7 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
         let se_lambda =
             libm::sqrtf((k * se[1]) * (k * se[1]) + (lambda * se[0]) * (lambda * se[0]));
         let _ = th;
-        let mut p = hunt_crossley_to_si(&self.config.scaling, se_k, se_lambda, n);
+        let mut p = hunt_crossley_to_si(&self.config.scaling, self.ln_length, se_k, se_lambda, n);
         p.n = se[2];
         p
     }
@@ -655,5 +715,44 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
         self.rls.reset();
         self.smoothed_ratio = self.rls.theta()[1];
         let _ = self.refresh();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Within the bounds the double stage skips the conversion, so every value inside
+    /// them must convert to finite SI, for the paper's units and for extreme ones.
+    #[test]
+    fn values_within_the_finite_bounds_convert_to_finite_si() {
+        let g = HuntCrossleyGuards::default();
+        for (length_m, force_n) in [
+            (1.0e-3, 1.0),
+            (1.0e-9, 1.0e-9),
+            (1.0e3, 1.0e6),
+            (1.0e-6, 1.0e3),
+        ] {
+            let s = Scaling { length_m, force_n };
+            let ln_length = libm::logf(length_m);
+            let (k_max, lambda_max) = certainly_finite_bounds(&s, ln_length, &g);
+            assert!(k_max > 0.0 && lambda_max > 0.0, "{length_m} {force_n}");
+            for i in 0..=20 {
+                let n = g.min_exponent + (g.max_exponent - g.min_exponent) * i as f32 / 20.0;
+                for (k, lambda) in [(k_max, lambda_max), (-k_max, -lambda_max), (k_max, 0.0)] {
+                    let p = hunt_crossley_to_si(&s, ln_length, k, lambda, n);
+                    assert!(p.is_finite(), "{length_m} {force_n} n={n}: {p:?}");
+                }
+            }
+        }
+        // Units with which some exponent overflows the conversion give no bound.
+        let s = Scaling {
+            length_m: 1.0e-30,
+            force_n: 1.0,
+        };
+        assert_eq!(
+            certainly_finite_bounds(&s, libm::logf(1.0e-30), &g),
+            (0.0, 0.0)
+        );
     }
 }

@@ -5,7 +5,7 @@
 use nalgebra::Vector2;
 
 use crate::error::ConfigError;
-use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
+use crate::estimator::{finite_or, ContactSample, Estimator, SampleUpdate, Scaling};
 use crate::rls::{Rls, RlsConfig};
 use crate::Status;
 
@@ -83,7 +83,7 @@ impl KelvinVoigtEstimator {
 impl Estimator for KelvinVoigtEstimator {
     type Parameters = KelvinVoigtParameters;
 
-    fn step(&mut self, sample: &ContactSample) -> Estimate<KelvinVoigtParameters> {
+    fn update(&mut self, sample: &ContactSample) -> SampleUpdate {
         let s = self.config.scaling;
         let (d, v, f) = s.to_internal(sample);
         let phi = Vector2::new(d, v);
@@ -111,8 +111,7 @@ impl Estimator for KelvinVoigtEstimator {
         if parameters.kappa < 0.0 || parameters.lambda < 0.0 {
             status |= Status::NONPHYSICAL;
         }
-        Estimate {
-            parameters,
+        SampleUpdate {
             predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }

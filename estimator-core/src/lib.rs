@@ -30,6 +30,7 @@ pub mod any;
 pub mod conditioning;
 pub mod error;
 pub mod estimator;
+mod fmath;
 pub mod hammerstein;
 pub mod hunt_crossley;
 pub mod kelvin_voigt;
@@ -47,6 +48,8 @@ pub mod zener;
 
 pub use any::{AnyEstimator, AnyParameters, EstimatorSettings, ModelKind};
 pub use error::ConfigError;
-pub use estimator::{ContactSample, Estimate, Estimator, Scaling};
-pub use pipeline::{Pipeline, PipelineConfig, PipelineOutput, RawSample, SignalConditioning};
+pub use estimator::{ContactSample, Estimate, Estimator, SampleUpdate, Scaling};
+pub use pipeline::{
+    Pipeline, PipelineConfig, PipelineOutput, PipelineUpdate, RawSample, SignalConditioning,
+};
 pub use status::Status;

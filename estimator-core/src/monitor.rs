@@ -10,6 +10,7 @@
 //! samples outside the band and falls as soon as the average is back inside.
 
 use crate::error::{check, positive, ConfigError};
+use crate::fmath::max;
 use crate::Status;
 
 /// Configuration of [`ResidualMonitor`].
@@ -107,7 +108,7 @@ impl ResidualMonitor {
         self.mean_square_n2 += self.rate * (innovation_n * innovation_n - self.mean_square_n2);
         self.samples = self.samples.saturating_add(1);
         let sigma = if noise_n.is_finite() {
-            noise_n.max(self.config.min_noise_n)
+            max(noise_n, self.config.min_noise_n)
         } else {
             self.config.min_noise_n
         };

@@ -8,7 +8,8 @@ use crate::conditioning::{
     Surface, TareConfig,
 };
 use crate::error::{positive, ConfigError};
-use crate::estimator::{ContactSample, Estimate, Estimator};
+use crate::estimator::{ContactSample, Estimate, Estimator, SampleUpdate};
+use crate::fmath::max;
 use crate::monitor::{ResidualMonitor, ResidualMonitorConfig};
 use crate::Status;
 
@@ -120,6 +121,44 @@ impl PipelineConfig {
     }
 }
 
+/// What one pipeline update did, without the estimator's SI parameters (read them with
+/// `pipeline.estimator().parameters()` when they are needed, e.g. when telemetry publishes
+/// them; [`Pipeline::step`] does both).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PipelineUpdate {
+    /// Contact state after this sample.
+    pub contact: ContactState,
+    /// What the estimator saw (δ, δ̇, F with offset removed); δ = 0 out of contact.
+    pub sample: ContactSample,
+    /// The latest estimator update's a-priori force prediction \[N\] (held while out of
+    /// contact or after a skipped sample).
+    pub predicted_force_n: f32,
+    /// Force offset being removed \[N\].
+    pub force_offset_n: f32,
+    /// Contact position x_contact \[m\] (NaN before the first contact).
+    pub contact_position_m: f32,
+    /// All flags of this sample (contact, tare, estimator, monitor).
+    pub status: Status,
+}
+
+impl PipelineUpdate {
+    /// The output with the estimator's current `parameters` (SI).
+    pub fn with_parameters<P>(self, parameters: P) -> PipelineOutput<P> {
+        PipelineOutput {
+            contact: self.contact,
+            sample: self.sample,
+            estimate: Estimate {
+                parameters,
+                predicted_force_n: self.predicted_force_n,
+                status: self.status,
+            },
+            force_offset_n: self.force_offset_n,
+            contact_position_m: self.contact_position_m,
+            status: self.status,
+        }
+    }
+}
+
 /// Output of one pipeline step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PipelineOutput<P> {
@@ -182,7 +221,8 @@ pub struct Pipeline<E: Estimator> {
     current_onset: Option<Onset>,
     monitor: ResidualMonitor,
     estimator: E,
-    last: Estimate<E::Parameters>,
+    /// The latest estimator update (held while out of contact).
+    last: SampleUpdate,
     last_position_m: f32,
     last_force_n: f32,
     has_sample: bool,
@@ -207,8 +247,7 @@ impl<E: Estimator> Pipeline<E> {
             first_onset: None,
             current_onset: None,
             monitor: ResidualMonitor::try_new(config.monitor)?,
-            last: Estimate {
-                parameters: estimator.parameters(),
+            last: SampleUpdate {
                 predicted_force_n: 0.0,
                 status: Status::NO_CONTACT,
             },
@@ -292,8 +331,7 @@ impl<E: Estimator> Pipeline<E> {
     pub fn replace_estimator(&mut self, estimator: E) {
         self.estimator = estimator;
         self.refiner.cancel();
-        self.last = Estimate {
-            parameters: self.estimator.parameters(),
+        self.last = SampleUpdate {
             predicted_force_n: 0.0,
             status: Status::NO_CONTACT,
         };
@@ -317,6 +355,13 @@ impl<E: Estimator> Pipeline<E> {
     /// by more than the onset threshold the estimator restarts
     /// ([`Status::OFFSET_CORRECTED`]).
     pub fn step(&mut self, raw: &RawSample) -> PipelineOutput<E::Parameters> {
+        let update = self.update(raw);
+        update.with_parameters(self.estimator.parameters())
+    }
+
+    /// [`Pipeline::step`] without converting the estimator's parameters to SI: the
+    /// per-sample work (the firmware reads the parameters only for a telemetry frame).
+    pub fn update(&mut self, raw: &RawSample) -> PipelineUpdate {
         let mut status = Status::empty();
         let finite = raw.position_m.abs() <= MAX_ABS_INPUT && raw.force_n.abs() <= MAX_ABS_INPUT;
         let (position, force) = if finite {
@@ -354,8 +399,7 @@ impl<E: Estimator> Pipeline<E> {
             status |= Status::OFFSET_CORRECTED;
             self.estimator.reset();
             self.monitor.reset();
-            self.last = Estimate {
-                parameters: self.estimator.parameters(),
+            self.last = SampleUpdate {
                 predicted_force_n: 0.0,
                 status: Status::NO_CONTACT,
             };
@@ -416,7 +460,7 @@ impl<E: Estimator> Pipeline<E> {
             // move by tens of µm would keep that error for its whole memory.
             return self.output(status | Status::CONTACT_PENDING, sample);
         }
-        let estimate = self.estimator.step(&sample);
+        let estimate = self.estimator.update(&sample);
         status |= estimate.status;
         status |= self
             .monitor
@@ -458,7 +502,7 @@ impl<E: Estimator> Pipeline<E> {
     /// becomes the current contact's onset, placed by [`Pipeline::follow_exponent`].
     fn refine(&mut self, x_f: f32, tared_f: f32, v_f: f32, onset_threshold: f32) {
         // The elastic part F/(1 + (λ/k)·δ̇) of a damped power-law onset.
-        let damping = 1.0 + self.estimator.onset_damping_ratio().max(0.0) * v_f;
+        let damping = 1.0 + max(self.estimator.onset_damping_ratio(), 0.0) * v_f;
         let point = RisePoint {
             position_m: x_f,
             force_n: if damping > 0.1 {
@@ -502,14 +546,11 @@ impl<E: Estimator> Pipeline<E> {
         self.current_onset = Some(onset);
     }
 
-    fn output(&self, status: Status, sample: ContactSample) -> PipelineOutput<E::Parameters> {
-        PipelineOutput {
+    fn output(&self, status: Status, sample: ContactSample) -> PipelineUpdate {
+        PipelineUpdate {
             contact: self.contact_state(),
             sample,
-            estimate: Estimate {
-                status,
-                ..self.last
-            },
+            predicted_force_n: self.last.predicted_force_n,
             force_offset_n: self.tare.offset_n(),
             contact_position_m: self.impact.contact_position_m(),
             status,
@@ -536,8 +577,7 @@ impl<E: Estimator> Pipeline<E> {
         self.estimator.reset();
         self.has_sample = false;
         self.tare_requested = false;
-        self.last = Estimate {
-            parameters: self.estimator.parameters(),
+        self.last = SampleUpdate {
             predicted_force_n: 0.0,
             status: Status::NO_CONTACT,
         };

@@ -24,6 +24,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::error::{check, positive, ConfigError};
+use crate::fmath::min_finite;
 use crate::Status;
 
 /// Forgetting-factor policy for an RLS estimator.
@@ -365,17 +366,14 @@ impl<const N: usize> Rls<N> {
         beta: f32,
         weight: f32,
     ) -> RlsUpdate {
-        if !(y.is_finite() && weight.is_finite() && weight > 0.0 && beta.is_finite())
-            || phi.iter().any(|v| !v.is_finite())
-        {
+        let inputs = y * 0.0 + weight * 0.0 + beta * 0.0;
+        if !(phi.iter().fold(inputs, |z, v| z + v * 0.0) == 0.0 && weight > 0.0) {
             return RlsUpdate {
                 prior_error: f32::NAN,
                 status: Status::NON_FINITE_INPUT,
             };
         }
-        let beta = beta
-            .min(1.0 - self.startup_gap)
-            .clamp(f32::MIN_POSITIVE, 1.0);
+        let beta = min_finite(beta, 1.0 - self.startup_gap).clamp(f32::MIN_POSITIVE, 1.0);
         self.startup_gap *= self.startup_decay;
         let mut status = Status::empty();
         let prior_error = y - phi.dot(&self.theta);
@@ -383,7 +381,8 @@ impl<const N: usize> Rls<N> {
         let free_phi = SVector::from_fn(|i, _| if self.held[i] { 0.0 } else { phi[i] });
         let pphi = self.p * free_phi;
         let denom = beta / weight + free_phi.dot(&pphi);
-        if !(denom.is_finite() && denom > 0.0) {
+        // Finite and positive (a plain `< INFINITY` becomes integer bit tests on the M4F).
+        if !(denom > 0.0 && denom * 0.0 == 0.0) {
             self.reset_covariance();
             return RlsUpdate {
                 prior_error,
@@ -407,10 +406,16 @@ impl<const N: usize> Rls<N> {
         // Anti-windup: effective β in [β, 1] so that trace(P) ≤ max_trace.
         let mut beta_eff = beta;
         if trace > self.max_trace * beta {
-            beta_eff = (trace / self.max_trace).min(1.0);
+            beta_eff = min_finite(trace / self.max_trace, 1.0);
             status |= Status::COVARIANCE_BOUNDED;
         }
-        p /= beta_eff;
+        for j in 0..N {
+            for i in 0..=j {
+                let v = p[(i, j)] / beta_eff;
+                p[(i, j)] = v;
+                p[(j, i)] = v;
+            }
+        }
         for i in 0..N {
             if self.held[i] {
                 p[(i, i)] = self.initial_covariance;
@@ -423,11 +428,12 @@ impl<const N: usize> Rls<N> {
         } else {
             self.p = p;
         }
-        if new_theta.iter().all(|v| v.is_finite()) {
+        if all_finite(new_theta.as_slice()) {
             self.theta = new_theta;
             let post = y - phi.dot(&self.theta);
             let r = weight * post * post;
-            if r.is_finite() {
+            // r ≥ 0 or NaN: finite exactly when below infinity.
+            if r < f32::INFINITY {
                 self.residual_variance += RESIDUAL_VARIANCE_RATE * (r - self.residual_variance);
             }
         } else {
@@ -441,13 +447,20 @@ impl<const N: usize> Rls<N> {
     }
 }
 
-/// `true` when P is finite and positive definite: every pivot of its LDLᵀ factorisation is
-/// positive (relative to the diagonal, so that rounding-level pivots count as lost).
+/// `true` when every value is finite: v·0 is ±0 for a finite v and NaN otherwise, so one
+/// comparison of the sum replaces a bit test per value (the RLS update runs at 1 kHz on
+/// the Cortex-M4F, where this is a fifth of its instructions).
+#[inline(always)]
+fn all_finite(values: &[f32]) -> bool {
+    values.iter().fold(0.0f32, |z, v| z + v * 0.0) == 0.0
+}
+
+/// `true` when the symmetric P is finite and positive definite: every pivot of its LDLᵀ
+/// factorisation is positive (relative to the diagonal, so that rounding-level pivots count
+/// as lost). A non-finite entry fails a pivot test (an infinite or NaN pivot, or one
+/// compared with an infinite diagonal), so finiteness needs no test of its own.
 /// O(N³/6) flops, no square roots; N ≤ 4 here.
 fn is_positive_definite<const N: usize>(p: &SMatrix<f32, N, N>) -> bool {
-    if p.iter().any(|v| !v.is_finite()) {
-        return false;
-    }
     let mut l = SMatrix::<f32, N, N>::zeros();
     let mut d = [0.0f32; N];
     for j in 0..N {

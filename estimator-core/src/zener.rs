@@ -27,7 +27,7 @@
 use nalgebra::Vector3;
 
 use crate::error::{positive, ConfigError};
-use crate::estimator::{finite_or, ContactSample, Estimate, Estimator, Scaling};
+use crate::estimator::{finite_or, ContactSample, Estimator, SampleUpdate, Scaling};
 use crate::rls::{Rls, RlsConfig};
 use crate::Status;
 
@@ -144,7 +144,7 @@ impl ZenerEstimator {
 impl Estimator for ZenerEstimator {
     type Parameters = ZenerParameters;
 
-    fn step(&mut self, sample: &ContactSample) -> Estimate<ZenerParameters> {
+    fn update(&mut self, sample: &ContactSample) -> SampleUpdate {
         let s = self.config.scaling;
         let t = self.config.sample_time_s;
         let (d, _, f) = s.to_internal(sample);
@@ -157,8 +157,7 @@ impl Estimator for ZenerEstimator {
         let predicted = self.previous_force + self.rls.predict(&phi);
         let mut status = Status::empty();
         if !sample.is_finite() {
-            return Estimate {
-                parameters: self.physical,
+            return SampleUpdate {
                 predicted_force_n: finite_or(predicted * s.force_n, 0.0),
                 status: Status::NON_FINITE_INPUT,
             };
@@ -175,8 +174,7 @@ impl Estimator for ZenerEstimator {
             Some(p) => self.physical = p,
             None => status |= Status::NONPHYSICAL,
         }
-        Estimate {
-            parameters: self.physical,
+        SampleUpdate {
             predicted_force_n: finite_or(predicted * s.force_n, 0.0),
             status,
         }

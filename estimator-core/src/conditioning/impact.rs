@@ -3,6 +3,7 @@
 //! contact point x_contact from which δ = x − x_contact is measured.
 
 use crate::error::{check, positive, ConfigError};
+use crate::fmath::{max, min};
 use crate::Status;
 
 use super::ContactState;
@@ -103,7 +104,7 @@ impl ImpactConfig {
 
     /// Onset threshold \[N\] for a force noise of `noise_n` \[N\].
     pub fn onset_threshold(&self, noise_n: f32) -> f32 {
-        self.onset_threshold_n.max(self.noise_multiplier * noise_n)
+        max(self.onset_threshold_n, self.noise_multiplier * noise_n)
     }
 
     /// Release threshold \[N\] for a force noise of `noise_n` \[N\].
@@ -325,7 +326,7 @@ impl ImpactDetector {
             self.below_count = 0;
             return Status::CONTACT_ONSET;
         }
-        self.free_space_min_position_m = self.free_space_min_position_m.min(position_m);
+        self.free_space_min_position_m = min(self.free_space_min_position_m, position_m);
         if tared_force_n <= release {
             self.last_quiet_position_m = position_m;
         }

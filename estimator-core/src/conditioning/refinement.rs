@@ -14,6 +14,7 @@
 //! [`OnsetPair::contact_point`], evaluated whenever the caller's exponent changes.
 
 use crate::error::ConfigError;
+use crate::fmath::{max, min};
 
 /// Configuration of [`OnsetRefiner`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,10 +88,11 @@ impl OnsetPair {
         }
         let (x1, f1) = (self.low.position_m, self.low.force_n);
         let (x2, f2) = (self.high.position_m, self.high.force_n);
-        let r = libm::powf(f2 / f1, 1.0 / exponent);
+        // (F2/F1)^(1/n) as one logf and one expf: a third of powf on the Cortex-M4F.
+        let r = libm::expf(libm::logf(f2 / f1) / exponent);
         let candidate = x1 - (x2 - x1) / (r - 1.0);
         if candidate.is_finite() && candidate < provisional_m && candidate > x1 - 5.0 * (x2 - x1) {
-            candidate.max(free_space_min_m.min(provisional_m))
+            max(candidate, min(free_space_min_m, provisional_m))
         } else {
             provisional_m
         }

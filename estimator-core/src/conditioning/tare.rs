@@ -24,6 +24,7 @@
 //! is raised on every sample.
 
 use crate::error::{check, ConfigError};
+use crate::fmath::{max, min};
 
 /// What is known of the force offset before the first sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -194,8 +195,8 @@ impl FlatStretch {
         self.sum_f += f;
         self.sum_xx += x * x;
         self.sum_xf += x * f;
-        self.min_position_m = self.min_position_m.min(position_m);
-        self.max_position_m = self.max_position_m.max(position_m);
+        self.min_position_m = min(self.min_position_m, position_m);
+        self.max_position_m = max(self.max_position_m, position_m);
     }
 
     fn travel_m(&self) -> f32 {
@@ -233,6 +234,9 @@ pub struct ForceTare {
     offset_n: f32,
     startup_sum_n: f32,
     variance_n2: f32,
+    /// √variance_n2, kept with it: the pipeline asks for it more than once a sample and
+    /// `sqrtf` is software on the Cortex-M4F.
+    noise_n: f32,
     samples: u32,
     previous_n: [f32; 2],
     confirmed: bool,
@@ -257,6 +261,7 @@ impl ForceTare {
             offset_n,
             startup_sum_n: 0.0,
             variance_n2: 0.0,
+            noise_n: 0.0,
             samples: 0,
             previous_n: [0.0; 2],
             confirmed,
@@ -277,7 +282,7 @@ impl ForceTare {
 
     /// Standard deviation of the force noise \[N\].
     pub fn noise_n(&self) -> f32 {
-        libm::sqrtf(self.variance_n2.max(0.0))
+        self.noise_n
     }
 
     /// `true` once the offset is backed by a free-space stretch, a command or a known
@@ -320,9 +325,10 @@ impl ForceTare {
                 let n = (self.samples - 1) as f32;
                 self.variance_n2 += (s - self.variance_n2) / n;
             } else {
-                let s = s.min(25.0 * self.variance_n2);
+                let s = min(s, 25.0 * self.variance_n2);
                 self.variance_n2 += (s - self.variance_n2) / self.config.startup_samples as f32;
             }
+            self.noise_n = libm::sqrtf(max(self.variance_n2, 0.0));
         }
         self.previous_n = [self.previous_n[1], force_n];
     }
@@ -363,9 +369,12 @@ impl ForceTare {
             }
         }
         if in_contact {
-            self.lowest_in_contact_n = self.lowest_in_contact_n.min(force_n);
+            self.lowest_in_contact_n = min(self.lowest_in_contact_n, force_n);
         }
-        let band = (self.config.flat_band_sigmas * self.noise_n()).max(release_threshold_n);
+        let band = max(
+            self.config.flat_band_sigmas * self.noise_n(),
+            release_threshold_n,
+        );
         if self.stretch.count > 0 && (force_n - self.stretch.mean_n()).abs() > band {
             self.stretch = FlatStretch::EMPTY;
         }
