@@ -528,6 +528,47 @@ pub fn diagnose_file(
     overrides: &Overrides,
     until_end_of: Option<Phase>,
 ) -> Result<FileDiagnosis> {
+    let Prepare {
+        record,
+        notes,
+        prepared,
+    } = prepare_file(path, format, overrides, until_end_of)?;
+    let diagnosis = crate::diagnose::diagnose(&prepared, options).with_context(|| {
+        format!(
+            "{}: the baseline model cannot be fitted (no contact samples)",
+            path.display()
+        )
+    })?;
+    Ok(FileDiagnosis {
+        record,
+        notes,
+        prepared,
+        diagnosis,
+    })
+}
+
+/// A record read and prepared for the discrepancy workflow.
+pub struct Prepare {
+    /// The record at 1 kHz.
+    pub record: Record,
+    /// How it was read and prepared, in words.
+    pub notes: Vec<String>,
+    /// The log as fitted: block means on the penetration axis, offset removed.
+    pub prepared: crate::diagnose::data::Prepared,
+}
+
+/// Reads `path` and prepares it as [`diagnose_file`] fits it: axis, offset and contact
+/// point from the front end, block means, phases (up to the end of the first
+/// `until_end_of` phase, if given).
+///
+/// # Errors
+/// As [`diagnose_file`], for everything before the fit.
+pub fn prepare_file(
+    path: &Path,
+    format: &str,
+    overrides: &Overrides,
+    until_end_of: Option<Phase>,
+) -> Result<Prepare> {
     let (native, record) = load(path, format)?;
     // Axis, offset and contact point from the whole record: the better of the two
     // memoryless onsets (a jump at impact, Kelvin-Voigt; a power-law rise, Hunt-Crossley).
@@ -584,6 +625,7 @@ pub fn diagnose_file(
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;
     prepared.offset_unidentified = !front.offset_identifiable();
+    prepared.position_sign = front.position_sign;
     if let Some(phase) = until_end_of {
         if !prepared.keep_until_end_of(phase) {
             bail!(
@@ -603,16 +645,48 @@ pub fn diagnose_file(
         prepared.len(),
         1e3 * prepared.dt
     ));
-    let diagnosis = crate::diagnose::diagnose(&prepared, options).with_context(|| {
-        format!(
-            "{}: the baseline model cannot be fitted (no contact samples)",
-            path.display()
-        )
-    })?;
-    Ok(FileDiagnosis {
+    Ok(Prepare {
         record,
         notes,
         prepared,
-        diagnosis,
+    })
+}
+
+/// A model specification run over a measured motion.
+pub struct SpecSimulation {
+    /// The motion file as prepared ([`prepare_file`]).
+    pub prepare: Prepare,
+    /// The model's force \[N\] from [`crate::diagnose::data::Prepared::fit_start`] on.
+    pub force_n: Vec<f64>,
+    /// NRMSE \[%\] of the model against the file's force over those samples.
+    pub nrmse_percent: f64,
+}
+
+/// Runs `spec` over the motion of `path` (`host-sim simulate --model-spec`): the file
+/// is prepared as `diagnose` prepares it and the spec's force law is evaluated on its
+/// penetration, with the spec's contact position and offsets.
+///
+/// # Errors
+/// If the file cannot be read or prepared (file, line and field named), or the force it
+/// records has no range to normalise the NRMSE by.
+pub fn simulate_spec(
+    spec: &crate::diagnose::spec::ModelSpec,
+    path: &Path,
+    format: &str,
+) -> Result<SpecSimulation> {
+    let prepare = prepare_file(path, format, &Overrides::default(), None)?;
+    let data = &prepare.prepared;
+    let force_n = spec.force_n(data);
+    let measured = &data.force_n[data.fit_start()..];
+    let nrmse_percent = crate::simulate::nrmse_percent(measured, &force_n).with_context(|| {
+        format!(
+            "{}: the measured force has no range to compare against",
+            path.display()
+        )
+    })?;
+    Ok(SpecSimulation {
+        prepare,
+        force_n,
+        nrmse_percent,
     })
 }

@@ -11,6 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use estimator_core::ModelKind;
 use host_sim::batch;
+use host_sim::diagnose::spec::ModelSpec;
 use host_sim::diagnose::{report as diagnosis_report, Baseline, Options as DiagnoseOptions};
 use host_sim::files::{diagnose_file, estimate_file, FileRun, REAL_FILES};
 use host_sim::phases::Phase;
@@ -33,20 +34,37 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Run a paper scenario on the simulated plant (log, estimates, summary, plots).
+    /// Run a paper scenario on the simulated plant (log, estimates, summary, plots), or,
+    /// with --model-spec and --motion, a diagnosed model over a measured motion.
     Simulate {
         /// Scenario name, or `all`.
-        #[arg(long, default_value = "all")]
+        #[arg(long, default_value = "all", conflicts_with = "model_spec")]
         scenario: String,
-        /// Output folder.
-        #[arg(long, default_value = "out/scenarios")]
-        out: PathBuf,
+        /// Output folder (default: out/scenarios; with --model-spec, out/simulate).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// A model specification (`model.json`, written by `diagnose`) to run over the
+        /// motion of --motion; writes simulation.csv and prints the NRMSE.
+        #[arg(long, requires = "motion")]
+        model_spec: Option<PathBuf>,
+        /// The measured record whose motion drives the model (any format `estimate` reads).
+        #[arg(long, requires = "model_spec")]
+        motion: Option<PathBuf>,
+        /// File format of --motion (auto-detected by default).
+        #[arg(long, default_value = "auto")]
+        format: String,
     },
     /// Run the per-sample pipeline over measured files and report the parameters.
     Estimate {
         /// Model to estimate.
-        #[arg(long, value_enum)]
-        model: ModelArg,
+        #[arg(long, value_enum, required_unless_present = "model_spec")]
+        model: Option<ModelArg>,
+        /// Estimate the online structure of a diagnosed model (`model.json`, written by
+        /// `diagnose`): power law and depth-dependent damping → hunt-crossley, with
+        /// relaxation → hammerstein, relaxation alone → zener; an error names the effects
+        /// no online estimator in the core models.
+        #[arg(long, conflicts_with = "model")]
+        model_spec: Option<PathBuf>,
         /// Input files or folders (every file below a folder). Several files run in
         /// parallel with one progress bar and write summary.csv and summary.json.
         #[arg(required = true)]
@@ -176,7 +194,25 @@ fn main() -> ExitCode {
     let result = match cli.command {
         None => demo(Path::new("out"), Path::new("../shared/data")),
         Some(Command::Demo { out, data }) => demo(&out, &data),
-        Some(Command::Simulate { scenario, out }) => simulate(&scenario, &out).map(|_| ()),
+        Some(Command::Simulate {
+            scenario,
+            out,
+            model_spec,
+            motion,
+            format,
+        }) => match (model_spec, motion) {
+            (Some(spec), Some(motion)) => simulate_model_spec(
+                &spec,
+                &motion,
+                &format,
+                &out.unwrap_or_else(|| PathBuf::from("out/simulate")),
+            ),
+            _ => simulate(
+                &scenario,
+                &out.unwrap_or_else(|| PathBuf::from("out/scenarios")),
+            )
+            .map(|_| ()),
+        },
         Some(Command::Telemetry { file }) => decode_telemetry(&file),
         Some(Command::Serial(args)) => host_sim::serial::cli(&args),
         Some(Command::Diagnose {
@@ -202,6 +238,7 @@ fn main() -> ExitCode {
         }
         Some(Command::Estimate {
             model,
+            model_spec,
             files,
             format,
             json,
@@ -229,16 +266,23 @@ fn main() -> ExitCode {
                 show_progress: true,
             };
             let phases = (!phase.is_empty()).then_some(phase);
-            estimate_files(
-                model.into(),
-                &files,
-                &format,
-                json,
-                out.as_deref(),
-                summary.as_deref(),
-                &overrides,
-                phases,
-            )
+            let kind = match (model, model_spec) {
+                (Some(model), _) => Ok(model.into()),
+                (None, Some(spec)) => estimator_of_spec(&spec),
+                (None, None) => Err(anyhow::anyhow!("--model or --model-spec is required")),
+            };
+            kind.and_then(|kind| {
+                estimate_files(
+                    kind,
+                    &files,
+                    &format,
+                    json,
+                    out.as_deref(),
+                    summary.as_deref(),
+                    &overrides,
+                    phases,
+                )
+            })
         }
     };
     match result {
@@ -248,6 +292,65 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The online estimator of a `model.json` (`estimate --model-spec`), said on stderr.
+fn estimator_of_spec(path: &Path) -> anyhow::Result<ModelKind> {
+    let spec = ModelSpec::read(path)?;
+    let kind = spec
+        .online_estimator()
+        .with_context(|| format!("{}: {}", path.display(), describe_effects(&spec)))?;
+    eprintln!(
+        "{}: {} → the online estimator {}",
+        path.display(),
+        describe_effects(&spec),
+        kind.name()
+    );
+    Ok(kind)
+}
+
+/// "kelvin-voigt + a + b" for a spec.
+fn describe_effects(spec: &ModelSpec) -> String {
+    std::iter::once("kelvin-voigt")
+        .chain(spec.effects.iter().map(|e| e.id()))
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+/// `simulate --model-spec SPEC --motion FILE`: the model's force over the measured
+/// motion, written to `out/simulation.csv` (time, penetration, measured and model force)
+/// with the NRMSE printed beside the one the diagnosis reported.
+fn simulate_model_spec(spec: &Path, motion: &Path, format: &str, out: &Path) -> anyhow::Result<()> {
+    let model = ModelSpec::read(spec)?;
+    let run = host_sim::files::simulate_spec(&model, motion, format)?;
+    let data = &run.prepare.prepared;
+    let start = data.fit_start();
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let path = out.join("simulation.csv");
+    let mut w =
+        csv::Writer::from_path(&path).with_context(|| format!("writing {}", path.display()))?;
+    w.write_record(["time_s", "depth_m", "measured_force_n", "model_force_n"])?;
+    for (i, f) in run.force_n.iter().enumerate() {
+        let k = start + i;
+        w.write_record([
+            format!("{:.6}", data.time_s[k]),
+            format!("{:.9e}", data.depth_m[k]),
+            format!("{:.9e}", data.force_n[k]),
+            format!("{f:.9e}"),
+        ])?;
+    }
+    w.flush()
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "{} over the motion of {}: NRMSE {:.3} % (the diagnosis reported {:.3} % on {})",
+        describe_effects(&model),
+        motion.display(),
+        run.nrmse_percent,
+        model.nrmse_percent,
+        model.source
+    );
+    println!("simulation: {}", path.display());
+    Ok(())
 }
 
 /// `--position-sign`: 1 or -1 (also +1).

@@ -140,6 +140,36 @@ fn silicone_compression_names_only_elastic_effects() {
         assert_eq!(fit.parameter("tare_n"), Some(0.0), "tare refitted");
     }
     gap_shrinks("ecoflex", &d, 0.25);
+    // The final elastic law is the material's, not a curve bent into shape by moving the
+    // contact point: its secant over the first 1.5 mm of depth matches a straight line
+    // through the loading curve over the same 1.5 mm (measured from the law's contact
+    // point: the specimen's toe before it is not the material's).
+    let record = host_sim::readers::read(&data("silicone-compression/ecoflex-00-10-A1.csv"), None)
+        .expect("the Ecoflex file reads");
+    let contact = d
+        .final_fit
+        .parameter("contact_position_m")
+        .expect("a contact position");
+    let span = 1.5e-3;
+    let (mut sx, mut sy, mut sxx, mut sxy, mut count) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (x, f) in record.position_m.iter().zip(&record.force_n) {
+        let depth = x - contact;
+        if (0.0..=span).contains(&depth) {
+            sx += depth;
+            sy += f;
+            sxx += depth * depth;
+            sxy += depth * f;
+            count += 1.0;
+        }
+    }
+    assert!(count >= 20.0, "only {count} samples in the first 1.5 mm");
+    let line = (count * sxy - sx * sy) / (count * sxx - sx * sx);
+    let secant = d.final_fit.elastic_force_n(span) / span;
+    assert!(
+        (secant / line - 1.0).abs() <= 0.15,
+        "secant {secant:.0} N/m against the loading curve's {line:.0} N/m ({})",
+        d.final_model()
+    );
 }
 
 /// The AFM creep record: its free-space force is strongly coloured (cantilever drift
@@ -236,6 +266,93 @@ fn cli_writes_report_plots_and_json() {
     let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
     assert!(report.contains("| 1 | `relaxation`"), "{report}");
     assert!(report.contains("Residual RMS per phase"));
+
+    // model.json: the final model, run over the measured motion, reproduces the
+    // diagnosis's NRMSE (within 10 %), and turns into the online estimator of its
+    // structure (relaxation on a linear spring: Zener).
+    let spec = dir.path().join("model.json");
+    let file = data("afm/cell-stress-relaxation.tab");
+    let sim_dir = dir.path().join("sim");
+    let sim = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["simulate", "--model-spec"])
+        .arg(&spec)
+        .arg("--motion")
+        .arg(&file)
+        .arg("--out")
+        .arg(&sim_dir)
+        .output()
+        .expect("the binary runs");
+    let stdout = String::from_utf8_lossy(&sim.stdout);
+    assert!(
+        sim.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+    let nrmse: f64 = stdout
+        .split("NRMSE ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no NRMSE in {stdout}"));
+    let reported = v["nrmse_percent_final"].as_f64().unwrap();
+    assert!(
+        (nrmse / reported - 1.0).abs() <= 0.1,
+        "simulated {nrmse} % against the diagnosis's {reported} %"
+    );
+    let csv = std::fs::read_to_string(sim_dir.join("simulation.csv")).unwrap();
+    assert!(csv.starts_with("time_s,depth_m,measured_force_n,model_force_n\n"));
+    assert!(csv.lines().count() > 1000);
+    let est = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["estimate", "--json", "--model-spec"])
+        .arg(&spec)
+        .arg(&file)
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&est.stderr);
+    assert!(est.status.success(), "{stderr}");
+    assert!(stderr.contains("the online estimator zener"), "{stderr}");
+    let e: serde_json::Value = serde_json::from_slice(&est.stdout).expect("one JSON object");
+    assert_eq!(e["model"], "zener", "{e}");
+}
+
+/// A structure no online estimator models is refused with the effects named, and a
+/// broken spec names its file and field.
+#[test]
+fn cli_model_spec_without_an_online_estimator_says_so() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let spec = dir.path().join("model.json");
+    let text = r#"{"schema": "contact-model-spec/1", "source": "x", "effects": ["exponential_stiffness", "time_delay"],
+        "elastic": {"law": "exponential", "kappa": 0.0, "m": 100.0, "b": 50.0},
+        "damping_lambda": 1.0, "damping_exponent": 0.0, "relaxation": null, "mass_kg": null,
+        "coulomb": null, "delay_s": 0.001, "plastic_fraction": null, "position_sign": 1.0,
+        "contact_position_m": 0.0, "contact_shift_m": null, "force_offset_n": 0.0,
+        "later_force_offset_n": null, "nrmse_percent": 1.0}"#;
+    std::fs::write(&spec, text).unwrap();
+    let run = |spec: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args(["estimate", "--model-spec"])
+            .arg(spec)
+            .arg(data("silicone-compression/ecoflex-00-10-A1.csv"))
+            .output()
+            .expect("the binary runs")
+    };
+    let out = run(&spec);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("model.json")
+            && stderr.contains("no online estimator")
+            && stderr.contains("exponential_stiffness, time_delay"),
+        "{stderr}"
+    );
+    std::fs::write(&spec, text.replace("\"m\": 100.0", "\"m\": -100.0")).unwrap();
+    let out = run(&spec);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("model.json") && stderr.contains("field elastic.m"),
+        "{stderr}"
+    );
 }
 
 /// Bad input: the reader's error with the file named, exit code 1, no panic.

@@ -72,6 +72,9 @@ pub struct Prepared {
     /// point before the record and the law's shape. (With a hold, an unloading or
     /// several speeds, the dynamics separate them and the tare stays free.)
     pub hold_tare: bool,
+    /// Sign that turned the file's position into the penetration axis the log is on
+    /// (+1 unless the caller set it from the front end's axis).
+    pub position_sign: f64,
 }
 
 /// Why a log cannot be diagnosed.
@@ -306,6 +309,7 @@ fn assemble(
         hold_damping: false,
         offset_unidentified: false,
         hold_tare: false,
+        position_sign: 1.0,
     }
 }
 

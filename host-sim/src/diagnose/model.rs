@@ -10,17 +10,18 @@ use std::collections::BTreeSet;
 
 use estimator_core::laws;
 use nalgebra::{DMatrix, DVector};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::data::Prepared;
 
 /// A named effect a model may be missing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
     /// Elastic force ∝ δⁿ, n ≠ 1 (Hunt-Crossley's elastic part, eq. 3).
     PowerLawStiffness,
-    /// Elastic force (m/b)(e^{bδ} − 1) (QLV exponential law, eqs. 11/13).
+    /// Elastic force (m/b)(e^{bδ} − 1), the QLV exponential law (eqs. 11/13), alone or
+    /// on the baseline's linear spring κδ ([`Nonlinear::linear_spring`]).
     ExponentialStiffness,
     /// Damping ∝ δ^q·δ̇ (Hunt-Crossley, eq. 3) instead of ∝ δ̇.
     DepthDependentDamping,
@@ -81,7 +82,9 @@ impl Effect {
     pub fn description(self) -> &'static str {
         match self {
             Effect::PowerLawStiffness => "elastic force ∝ δⁿ (Hunt-Crossley elastic part)",
-            Effect::ExponentialStiffness => "elastic force (m/b)(e^{bδ} − 1) (QLV exponential law)",
+            Effect::ExponentialStiffness => {
+                "elastic force (m/b)(e^{bδ} − 1) (QLV exponential law), alone or with κδ"
+            }
             Effect::DepthDependentDamping => "damping ∝ δ^q·δ̇ (Hunt-Crossley) instead of ∝ δ̇",
             Effect::Relaxation => {
                 "stress relaxation: one more exponential mode (Zener arm, QLV eq. 15)"
@@ -233,7 +236,7 @@ impl Scales {
 }
 
 /// Values of the nonlinear parameters.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Nonlinear {
     /// Contact position refinement \[m\] (added to the detector's first-impact point).
     pub contact_m: f64,
@@ -253,6 +256,10 @@ pub struct Nonlinear {
     pub plastic: f64,
     /// Coulomb slip rate v_s \[m/s\].
     pub slip_m_per_s: f64,
+    /// Whether the exponential law keeps the baseline's linear spring
+    /// (κδ + m(e^{bδ} − 1)/b) or replaces it (m(e^{bδ} − 1)/b): a structural choice, not
+    /// searched; the workflow fits both and keeps the better by BIC.
+    pub linear_spring: bool,
 }
 
 impl Default for Nonlinear {
@@ -267,6 +274,7 @@ impl Default for Nonlinear {
             contact_shift_m: 0.0,
             plastic: 0.0,
             slip_m_per_s: 1e-3,
+            linear_spring: false,
         }
     }
 }
@@ -368,17 +376,18 @@ fn design(
     let coulomb_on = has(Effect::CoulombFriction);
     let mut deepest = f64::NEG_INFINITY;
     let mut gate = Vec::with_capacity(n);
-    let (mut elastic, mut damping, mut inertia, mut coulomb) = (
+    let (mut elastic, mut damping, mut inertia, mut coulomb, mut linear) = (
         Vec::with_capacity(n),
         Vec::with_capacity(n),
+        Vec::new(),
         Vec::new(),
         Vec::new(),
     );
     // Material terms of one instant: (in contact, elastic, damping, Coulomb) for the
     // depth δ_e below the (shifted, plastically set) contact point and rate v.
-    let terms = |de: f64, v: f64| -> (f64, f64, f64, f64) {
+    let terms = |de: f64, v: f64| -> (f64, f64, f64, f64, f64) {
         if de <= 0.0 {
-            return (0.0, 0.0, 0.0, 0.0);
+            return (0.0, 0.0, 0.0, 0.0, 0.0);
         }
         // The core's laws (estimator_core::laws), on δ scaled by the deepest
         // penetration L for conditioning: L·(δ/L)ⁿ and (e^{bδ} − 1)/b.
@@ -395,7 +404,13 @@ fn design(
         } else {
             v
         };
-        (1.0, e, dv, if coulomb_on { (v / v0).tanh() } else { 0.0 })
+        (
+            1.0,
+            e,
+            dv,
+            if coulomb_on { (v / v0).tanh() } else { 0.0 },
+            de,
+        )
     };
     let block = data.block;
     let half = (block as f64 - 1.0) / 2.0;
@@ -432,23 +447,32 @@ fn design(
             );
             a * v <= 0.0 || b * v <= 0.0
         };
-        let (g, e, dv, c) = if block > 1 && ((lo < reference && hi > reference) || reverses) {
-            let mut sum = (0.0, 0.0, 0.0, 0.0);
+        let (g, e, dv, c, de) = if block > 1 && ((lo < reference && hi > reference) || reverses) {
+            let mut sum = (0.0, 0.0, 0.0, 0.0, 0.0);
             for j in 0..block {
                 let raw = ((start + i) * block + j) as f64 - shift * block as f64;
                 let dj = interp(&data.raw_depth_m, raw) - reference;
                 let vj = interp(&data.rate_m_per_s, (raw - half) / block as f64);
                 let t = terms(dj, vj);
-                sum = (sum.0 + t.0, sum.1 + t.1, sum.2 + t.2, sum.3 + t.3);
+                sum = (
+                    sum.0 + t.0,
+                    sum.1 + t.1,
+                    sum.2 + t.2,
+                    sum.3 + t.3,
+                    sum.4 + t.4,
+                );
             }
             let k = block as f64;
-            (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k)
+            (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k, sum.4 / k)
         } else {
             let de = series(0, i) - reference;
             terms(de, v)
         };
         gate.push(g > 0.0);
         elastic.push(e);
+        if has(Effect::ExponentialStiffness) && nl.linear_spring {
+            linear.push(de);
+        }
         damping.push(if data.hold_damping { 0.0 } else { dv });
         if has(Effect::Inertia) {
             inertia.push(g * series(2, i));
@@ -460,6 +484,17 @@ fn design(
     let mut names = vec!["elastic", "damping"];
     let mut columns = vec![elastic, damping];
     let mut material = vec![true, true];
+    if has(Effect::ExponentialStiffness) && nl.linear_spring {
+        // The exponential law on the baseline's linear spring (κδ + m(e^{bδ} − 1)/b):
+        // alone, its initial slope m is tied to its curvature, and a material that starts
+        // nearly linear and then stiffens (a compressed silicone: log-log slope 1.1 →
+        // 2.3) is fitted by moving the contact point. Where the exponential alone fits,
+        // the extra column trades against the contact point and the search can end in a
+        // worse optimum; hence both variants are fitted (`Nonlinear::linear_spring`).
+        names.push("linear");
+        columns.push(linear);
+        material.push(true);
+    }
     if has(Effect::Relaxation) {
         let alpha = -(-nl.nu * data.dt).exp_m1();
         let mut y = 0.0;
@@ -533,7 +568,7 @@ const MAX_COLUMNS: usize = 8;
 /// Columns whose coefficient a passive material keeps non-negative: the elastic and the
 /// damping coefficient (κ, k, m ≥ 0 and λ ≥ 0 at every step, the baseline included).
 fn non_negative(name: &str) -> bool {
-    matches!(name, "elastic" | "damping")
+    matches!(name, "elastic" | "damping" | "linear")
 }
 
 /// Least squares on columns scaled to unit RMS (normal equations, Cholesky with a tiny
@@ -674,7 +709,7 @@ impl Fit {
     }
 
     /// The model's instantaneous elastic force F_e(δ) \[N\] at depth `depth_m` \[m\]
-    /// from the contact point: κ·δ (eq. 1), k·δⁿ (eq. 3) or m(e^{bδ} − 1)/b (QLV, eqs.
+    /// from the contact point: κ·δ (eq. 1), k·δⁿ (eq. 3) or κδ + m(e^{bδ} − 1)/b (QLV, eqs.
     /// 11/13), by the core's laws; 0 for δ ≤ 0. With relaxation this is the
     /// instantaneous law; the relaxed one is (1 − c) times it.
     pub fn elastic_force_n(&self, depth_m: f64) -> f64 {
@@ -682,7 +717,7 @@ impl Fit {
         if self.effects.contains(&Effect::PowerLawStiffness) {
             p("k") * laws::power_law(depth_m, p("n"))
         } else if self.effects.contains(&Effect::ExponentialStiffness) {
-            p("m") * laws::exponential_law(depth_m, p("b"))
+            p("kappa") * depth_m.max(0.0) + p("m") * laws::exponential_law(depth_m, p("b"))
         } else {
             p("kappa") * depth_m.max(0.0)
         }
@@ -739,23 +774,7 @@ fn evaluate(
                     .sum()
             })
             .collect();
-        let next: Vec<f64> = (0..n)
-            .map(|i| {
-                if !full.gate[i] {
-                    return 1.0;
-                }
-                if m[i] <= 0.0 {
-                    return 0.0;
-                }
-                // Mean of max(0, m) over the sample, m linear through the neighbours.
-                let slope = 0.5 * (m[(i + 1).min(n - 1)] - m[i.saturating_sub(1)]);
-                let mean: f64 = (0..block)
-                    .map(|j| (m[i] + ((j as f64 + 0.5) / block as f64 - 0.5) * slope).max(0.0))
-                    .sum::<f64>()
-                    / block as f64;
-                (mean / m[i]).clamp(0.0, 1.0)
-            })
-            .collect();
+        let next: Vec<f64> = (0..n).map(|i| touch_weight(&full, &m, i, block)).collect();
         let done = next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
         result = Some((s.rss, s, touch));
         touch = next;
@@ -765,6 +784,63 @@ fn evaluate(
     }
     // (Returned: the weights the next evaluation nearby should start from.)
     result.map(|(rss, s, used)| (rss, mask_rows(full, &used), s, touch))
+}
+
+/// The force \[N\] of a model with given coefficients over the record from
+/// [`Prepared::fit_start`] on (the same samples as a [`Fit`]'s prediction): the design
+/// [`fit`] regresses on, each column times `coefficient(name)` (the regression's own
+/// column names and scaling: see [`crate::diagnose::spec`] for the SI conversion), with
+/// the unilateral clipping of [`fit`]'s evaluation (material force only where the
+/// material terms push). The record's damping and tare holds do not apply: the
+/// coefficients are given.
+pub fn predict(
+    data: &Prepared,
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    coefficient: impl Fn(&str) -> f64,
+) -> Vec<f64> {
+    let start = data.fit_start();
+    let scale = Scales::of(data);
+    let mut free = data.clone();
+    free.hold_damping = false;
+    free.hold_tare = false;
+    let full = design(&free, start, effects, nl, &scale);
+    let n = data.len() - start;
+    let beta: Vec<f64> = full.names.iter().map(|name| coefficient(name)).collect();
+    let sum = |material: bool, i: usize| -> f64 {
+        full.columns
+            .iter()
+            .zip(&beta)
+            .zip(&full.material)
+            .filter(|(_, m)| **m == material)
+            .map(|((c, b), _)| c[i] * b)
+            .sum()
+    };
+    let m: Vec<f64> = (0..n).map(|i| sum(true, i)).collect();
+    let block = data.block.max(1);
+    (0..n)
+        .map(|i| touch_weight(&full, &m, i, block) * m[i] + sum(false, i))
+        .collect()
+}
+
+/// Weight of the material terms at sample `i` given their unclipped sum `m`: 1 out of
+/// contact (the terms are 0 there), 0 where they pull, and in between for a sample in
+/// which they change sign (the mean of max(0, m) over the sample's `block` raw samples,
+/// m linear through the neighbours, over m).
+fn touch_weight(design: &Design, m: &[f64], i: usize, block: usize) -> f64 {
+    if !design.gate[i] {
+        return 1.0;
+    }
+    if m[i] <= 0.0 {
+        return 0.0;
+    }
+    let n = m.len();
+    let slope = 0.5 * (m[(i + 1).min(n - 1)] - m[i.saturating_sub(1)]);
+    let mean: f64 = (0..block)
+        .map(|j| (m[i] + ((j as f64 + 0.5) / block as f64 - 0.5) * slope).max(0.0))
+        .sum::<f64>()
+        / block as f64;
+    (mean / m[i]).clamp(0.0, 1.0)
 }
 
 /// The design with the material columns weighted by `touch`.
@@ -1204,6 +1280,9 @@ fn name_parameters(
         out.push(("k".into(), e * f, se_e * f));
         out.push(("n".into(), nl.n, knob_se(Knob::Exponent)));
     } else if has(Effect::ExponentialStiffness) {
+        if let Some(j) = col("linear") {
+            out.push(("kappa".into(), solve.beta[j], se[j]));
+        }
         out.push(("m".into(), e, se_e));
         out.push(("b".into(), nl.b, knob_se(Knob::StiffeningRate)));
     } else {

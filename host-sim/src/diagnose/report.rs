@@ -595,7 +595,8 @@ pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<Str
     ])
 }
 
-/// Writes `report.md`, `diagnosis.json` and the plots into `dir` (created if needed);
+/// Writes `report.md`, `diagnosis.json`, `model.json` (the final model,
+/// [`super::spec::ModelSpec`]) and the plots into `dir` (created if needed);
 /// returns the report's path.
 ///
 /// # Errors
@@ -614,6 +615,10 @@ pub fn write(
         .with_context(|| format!("writing {}", report.display()))?;
     let path = dir.join("diagnosis.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json(file, d, data))?)
+        .with_context(|| format!("writing {}", path.display()))?;
+    let spec = super::spec::ModelSpec::of_fit(&d.final_fit, data, file)?;
+    let path = dir.join("model.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&spec)?)
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(report)
 }
