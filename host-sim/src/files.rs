@@ -28,21 +28,47 @@ fn progress(len: u64) -> ProgressBar {
     bar
 }
 
-/// Reads `path`, resampled to 1 kHz.
-pub fn load(path: &Path, format: &str) -> Result<(Record, Record)> {
+/// A record as read and, unless it already is, resampled to 1 kHz.
+pub struct Loaded {
+    /// The file's own samples.
+    pub native: Record,
+    /// The 1 kHz record, when the file is not already at 1 kHz.
+    resampled: Option<Record>,
+}
+
+impl Loaded {
+    /// The record at 1 kHz.
+    pub fn uniform(&self) -> &Record {
+        self.resampled.as_ref().unwrap_or(&self.native)
+    }
+
+    /// The record at 1 kHz, owned.
+    pub fn into_uniform(self) -> Record {
+        self.resampled.unwrap_or(self.native)
+    }
+}
+
+/// Reads `path` and resamples it to 1 kHz (a 1 kHz file is kept once, not copied).
+///
+/// # Errors
+/// The reader's error (file, line and field), an unknown `format`, or a record that
+/// cannot be resampled.
+pub fn load(path: &Path, format: &str) -> Result<Loaded> {
     let format = if format == "auto" {
         None
     } else {
         Some(format.parse::<Format>().map_err(anyhow::Error::msg)?)
     };
     let native = readers::read(path, format)?;
-    let uniform = match native.sample_rate_hz() {
-        Some(rate) if (rate - 1000.0).abs() < 1e-6 * 1000.0 => native.clone(),
-        _ => native
-            .try_resample(1000.0)
-            .with_context(|| format!("{}: cannot resample to 1 kHz", path.display()))?,
+    let resampled = match native.sample_rate_hz() {
+        Some(rate) if (rate - 1000.0).abs() < 1e-6 * 1000.0 => None,
+        _ => Some(
+            native
+                .try_resample(1000.0)
+                .with_context(|| format!("{}: cannot resample to 1 kHz", path.display()))?,
+        ),
     };
-    Ok((native, uniform))
+    Ok(Loaded { native, resampled })
 }
 
 /// The file's own sampling rate \[Hz\]: exact when uniform, else the mean over its span.
@@ -244,8 +270,9 @@ pub fn estimate_file(
     overrides: &Overrides,
     phases: Option<Vec<Phase>>,
 ) -> Result<FileRun> {
-    let (native, record) = load(path, format)?;
-    let native_rate = native_rate_hz(&native);
+    let loaded = load(path, format)?;
+    let (native, record) = (&loaded.native, loaded.uniform());
+    let native_rate = native_rate_hz(native);
     let front = frontend::analyse(
         &native.time_s,
         &native.position_m,
@@ -373,6 +400,7 @@ pub fn estimate_file(
         ));
     }
     options.estimate_during = phases;
+    options.parameter_trace = !overrides.no_parameter_trace;
     let bar = if overrides.show_progress {
         progress(record.len() as u64)
     } else {
@@ -450,7 +478,7 @@ pub fn estimate_file(
         .estimate_during
         .map(|p| p.iter().map(|p| p.name().to_string()).collect());
     Ok(FileRun {
-        record,
+        record: loaded.into_uniform(),
         notes,
         warnings,
         front_end: front,
@@ -569,7 +597,8 @@ pub fn prepare_file(
     overrides: &Overrides,
     until_end_of: Option<Phase>,
 ) -> Result<Prepare> {
-    let (native, record) = load(path, format)?;
+    let loaded = load(path, format)?;
+    let (native, record) = (&loaded.native, loaded.uniform());
     // Axis, offset and contact point from the whole record: the better of the two
     // memoryless onsets (a jump at impact, Kelvin-Voigt; a power-law rise, Hunt-Crossley).
     let fronts: Vec<FrontEnd> = [
@@ -646,7 +675,7 @@ pub fn prepare_file(
         1e3 * prepared.dt
     ));
     Ok(Prepare {
-        record,
+        record: loaded.into_uniform(),
         notes,
         prepared,
     })

@@ -264,6 +264,8 @@ fn main() -> ExitCode {
                 memory_s,
                 cold_start,
                 show_progress: true,
+                // Only the per-file outputs under --out read the per-sample parameters.
+                no_parameter_trace: out.is_none(),
             };
             let phases = (!phase.is_empty()).then_some(phase);
             let kind = match (model, model_spec) {

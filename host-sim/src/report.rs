@@ -247,6 +247,12 @@ pub fn write_estimates(path: &Path, time_s: &[f64], result: &RunResult) -> Resul
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
     let t = &result.trace;
+    if t.parameters.len() != t.depth_m.len() {
+        anyhow::bail!(
+            "{}: the run kept no per-sample parameters (RunOptions::parameter_trace)",
+            path.display()
+        );
+    }
     let names: Vec<&str> = result.parameters.iter().map(|(n, _)| n).collect();
     let mut header = vec![
         "time_s",

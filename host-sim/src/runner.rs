@@ -27,6 +27,10 @@ pub struct RunOptions {
     /// Update the estimator only during these phases (e.g. loading only, for a test whose
     /// hold and unloading follow other laws); `None` = whenever in contact.
     pub estimate_during: Option<Vec<Phase>>,
+    /// Keep the parameters after every sample in [`Trace::parameters`] (for the
+    /// per-sample estimates file and plots; ≈ 28 B a sample). Without it the trace's
+    /// parameters are empty and only the phases' final parameters are kept.
+    pub parameter_trace: bool,
 }
 
 impl RunOptions {
@@ -38,6 +42,7 @@ impl RunOptions {
             pipeline: recommended_pipeline(model),
             settings: EstimatorSettings::default(),
             estimate_during: None,
+            parameter_trace: true,
         }
     }
 }
@@ -73,6 +78,11 @@ pub struct Trace {
     pub status: Vec<u32>,
     /// Phase of each sample (detected online from the contact state and δ̇).
     pub phase: Vec<Phase>,
+}
+
+/// Phases whose final parameters a run reports.
+fn phase_with_parameters(p: Phase) -> bool {
+    matches!(p, Phase::Loading | Phase::Hold | Phase::Unloading)
 }
 
 /// Result of a run.
@@ -178,7 +188,7 @@ pub fn run(
         rate_m_per_s: Vec::with_capacity(n),
         force_n: Vec::with_capacity(n),
         predicted_force_n: Vec::with_capacity(n),
-        parameters: Vec::with_capacity(n),
+        parameters: Vec::with_capacity(if options.parameter_trace { n } else { 0 }),
         status: Vec::with_capacity(n),
         phase: Vec::with_capacity(n),
     };
@@ -188,6 +198,8 @@ pub fn run(
     let mut phase = Phase::FreeSpace;
     let mut counts: BTreeMap<String, usize> = BTreeMap::new();
     let mut first_contact = None;
+    let mut phase_parameters = BTreeMap::new();
+    let mut last_parameters: Option<AnyParameters> = None;
     for i in 0..n {
         if let Some(allowed) = &options.estimate_during {
             // The phase of the previous sample gates this one (the loop is causal).
@@ -214,10 +226,21 @@ pub fn run(
         trace
             .predicted_force_n
             .push(f64::from(out.estimate.predicted_force_n));
-        trace.parameters.push(out.estimate.parameters);
+        if options.parameter_trace {
+            trace.parameters.push(out.estimate.parameters);
+        }
         trace.status.push(out.status.bits());
+        let previous = phase;
         phase = classifier.classify(in_contact, f64::from(depth_rate_m_per_s));
         trace.phase.push(phase);
+        // The parameters at the end of each loading, hold and unloading segment (the
+        // last segment of each phase is kept).
+        if i > 0 && phase != previous {
+            if let Some(p) = last_parameters.filter(|_| phase_with_parameters(previous)) {
+                phase_parameters.insert(previous, p);
+            }
+        }
+        last_parameters = Some(out.estimate.parameters);
         for (name, _) in out.status.iter_names() {
             *counts.entry(name.to_string()).or_default() += 1;
         }
@@ -245,11 +268,8 @@ pub fn run(
         })
         .collect();
     let (nrmse, vaf) = fit_quality_on(&parameters, options.pipeline.sample_time_s, &trace, &judged);
-    let mut phase_parameters = BTreeMap::new();
-    for (p, _, end) in phases::segments(&trace.phase) {
-        if matches!(p, Phase::Loading | Phase::Hold | Phase::Unloading) {
-            phase_parameters.insert(p, trace.parameters[end - 1]);
-        }
+    if let Some(p) = last_parameters.filter(|_| phase_with_parameters(phase)) {
+        phase_parameters.insert(phase, p);
     }
     Ok(RunResult {
         model: options.model,
@@ -304,7 +324,7 @@ pub fn fit_quality_on(
     trace: &Trace,
     judged: &[bool],
 ) -> (Option<f64>, Option<f64>) {
-    let Some(simulated) = simulate_force(
+    let Some(mut model) = simulate_force(
         parameters,
         sample_time_s,
         &trace.depth_m,
@@ -313,12 +333,18 @@ pub fn fit_quality_on(
     ) else {
         return (None, None);
     };
-    let (measured, model): (Vec<f64>, Vec<f64>) = judged
-        .iter()
-        .zip(trace.force_n.iter().zip(&simulated))
-        .filter(|(j, _)| **j)
-        .map(|(_, (m, s))| (*m, *s))
-        .unzip();
+    // The judged samples, the model's compacted in place (a long record's trace is
+    // tens of MB; no second copy of it).
+    let mut measured = Vec::with_capacity(judged.iter().filter(|j| **j).count());
+    let mut kept = 0;
+    for (i, j) in judged.iter().enumerate().take(model.len()) {
+        if *j {
+            model[kept] = model[i];
+            measured.push(trace.force_n[i]);
+            kept += 1;
+        }
+    }
+    model.truncate(kept);
     (
         nrmse_percent(&measured, &model),
         vaf_percent(&measured, &model),

@@ -27,6 +27,9 @@ pub struct Overrides {
     /// Show a per-sample progress bar while estimating (the CLI on one file; batches show
     /// one bar over the files instead).
     pub show_progress: bool,
+    /// Keep no per-sample parameters (nothing will write the estimates file or plots):
+    /// ≈ 28 B a sample less ([`crate::runner::RunOptions::parameter_trace`]).
+    pub no_parameter_trace: bool,
 }
 
 /// Largest state-variable filter bandwidth as a fraction of a record's native sample
