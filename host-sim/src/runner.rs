@@ -235,7 +235,7 @@ pub fn run(
         trace.phase.push(phase);
         // The parameters at the end of each loading, hold and unloading segment (the
         // last segment of each phase is kept).
-        if i > 0 && phase != previous {
+        if phase != previous {
             if let Some(p) = last_parameters.filter(|_| phase_with_parameters(previous)) {
                 phase_parameters.insert(previous, p);
             }

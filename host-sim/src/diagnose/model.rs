@@ -321,6 +321,20 @@ struct Design {
     gate: Vec<bool>,
 }
 
+impl Design {
+    /// Σ β_j·column_j at sample `i` over the material columns (`material`) or the
+    /// others.
+    fn sum_at(&self, beta: &[f64], i: usize, material: bool) -> f64 {
+        self.columns
+            .iter()
+            .zip(beta)
+            .zip(&self.material)
+            .filter(|(_, m)| **m == material)
+            .map(|((c, b), _)| c[i] * b)
+            .sum()
+    }
+}
+
 /// Linear interpolation of `v` at fractional index `x`.
 fn interp(v: &[f64], x: f64) -> f64 {
     if x <= 0.0 {
@@ -763,17 +777,7 @@ fn evaluate(
     let mut result = None;
     for _ in 0..iterations.max(1) {
         let s = least_squares(&full, y, None, &touch)?;
-        let m: Vec<f64> = (0..n)
-            .map(|i| {
-                full.columns
-                    .iter()
-                    .zip(&s.beta)
-                    .zip(&full.material)
-                    .filter(|(_, m)| **m)
-                    .map(|((c, b), _)| c[i] * b)
-                    .sum()
-            })
-            .collect();
+        let m: Vec<f64> = (0..n).map(|i| full.sum_at(&s.beta, i, true)).collect();
         let next: Vec<f64> = (0..n).map(|i| touch_weight(&full, &m, i, block)).collect();
         let done = next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
         result = Some((s.rss, s, touch));
@@ -807,19 +811,10 @@ pub fn predict(
     let full = design(&free, start, effects, nl, &scale);
     let n = data.len() - start;
     let beta: Vec<f64> = full.names.iter().map(|name| coefficient(name)).collect();
-    let sum = |material: bool, i: usize| -> f64 {
-        full.columns
-            .iter()
-            .zip(&beta)
-            .zip(&full.material)
-            .filter(|(_, m)| **m == material)
-            .map(|((c, b), _)| c[i] * b)
-            .sum()
-    };
-    let m: Vec<f64> = (0..n).map(|i| sum(true, i)).collect();
+    let m: Vec<f64> = (0..n).map(|i| full.sum_at(&beta, i, true)).collect();
     let block = data.block.max(1);
     (0..n)
-        .map(|i| touch_weight(&full, &m, i, block) * m[i] + sum(false, i))
+        .map(|i| touch_weight(&full, &m, i, block) * m[i] + full.sum_at(&beta, i, false))
         .collect()
 }
 
