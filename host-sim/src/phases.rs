@@ -114,8 +114,8 @@ pub fn speed_threshold(position_m: &[f64], sample_time_s: f64) -> f64 {
         .windows(span + 1)
         .map(|w| ((w[span] - w[0]) / (span as f64 * sample_time_s)).abs())
         .collect();
-    speeds.sort_by(f64::total_cmp);
-    let p999 = speeds[((speeds.len() - 1) as f64 * 0.999) as usize];
+    let at = ((speeds.len() - 1) as f64 * 0.999) as usize;
+    let p999 = *speeds.select_nth_unstable_by(at, f64::total_cmp).1;
     LOADING_SPEED_FRACTION * p999
 }
 

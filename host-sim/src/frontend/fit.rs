@@ -15,13 +15,17 @@
 //! where R_ν\[g\] is the relaxing part of the convolution (9) with one mode e^{−ν·t}: the state
 //! z' = −ν·z + dg/dt, stepped exactly for g linear over each step
 //! ([`estimator_core::laws::first_order_hold`]). The nonlinear parameters are found by a
-//! grid over u_c with golden-section searches over n and ν, then refined. For the memoryless
+//! grid over u_c with golden-section searches over n and ν, then refined around the
+//! grid's best minima (Brent's method, argmin's `BrentOpt`, over u_c and n). For the memoryless
 //! laws, points where the fitted law is negative while δ > 0 (the probe retracting faster
 //! than the material recovers: it has left the surface) are taken as free, as the
 //! unilateral contact requires.
 
+use argmin::core::{CostFunction, Executor};
+use argmin::solver::brent::BrentOpt;
 use estimator_core::laws;
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 
 use super::series::Series;
 
@@ -199,6 +203,37 @@ pub const COARSE_POINTS: usize = 1500;
 
 /// Cells of the grid over the contact point (over 4 axis ranges: 64 per range).
 pub const CONTACT_GRID: usize = 256;
+
+/// Golden-section iterations of the grid's searches over the exponent (over
+/// [`EXPONENT_RANGE`]: to ≈ 0.01, enough to rank the cells) and ln ν.
+pub const GRID_ITERATIONS: (usize, usize) = (12, 20);
+
+/// Tolerances of the refinement's [`brent`] searches on all points: exponent, contact point
+/// (scaled by the position range).
+pub const TOLERANCE: (f64, f64) = (2e-5, 1e-7);
+
+/// A one-dimensional minimisation.
+#[derive(Debug, Clone, Copy)]
+enum Search {
+    /// Golden section in this many steps: robust where the cost is infinite (an
+    /// unphysical law) over much of the bracket.
+    Golden(usize),
+    /// [`brent`] to this tolerance: fast where the cost is smooth near a known minimum.
+    Brent(f64),
+}
+
+impl Search {
+    fn minimise(self, a: f64, b: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
+        match self {
+            Search::Golden(iterations) => golden(a, b, iterations, f),
+            Search::Brent(tolerance) => brent(a, b, tolerance, MAX_EVALUATIONS, f),
+        }
+    }
+}
+
+/// Most evaluations of one one-dimensional search (Brent's method stops at its tolerance
+/// well before this on every record seen).
+pub const MAX_EVALUATIONS: u64 = 60;
 
 /// Local minima of the grid refined on all points.
 pub const REFINED_MINIMA: usize = 3;
@@ -426,20 +461,21 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// The best exponent (golden section within `exponents`) at `k`'s contact point and
-    /// rate: (n, rss).
-    fn best_exponent(&self, k: Knobs, exponents: (f64, f64), iterations: usize) -> (f64, f64) {
+    /// The best exponent (`search` within `exponents`) at `k`'s contact point and rate:
+    /// (n, rss).
+    fn best_exponent(&self, k: Knobs, exponents: (f64, f64), search: Search) -> (f64, f64) {
         if !self.family.has_exponent() {
             return (1.0, self.rss(Knobs { n: 1.0, ..k }));
         }
         let logs = self.depth_logs(k.uc);
-        golden(exponents.0, exponents.1, iterations, |n| {
+        search.minimise(exponents.0, exponents.1, |n| {
             self.rss_at(&logs, Knobs { n, ..k })
         })
     }
 
-    /// The best relaxation rate (golden section on ln ν over the record's time scales) at
-    /// `k`'s contact point and exponent: (ν, rss).
+    /// The best relaxation rate (golden section on ln ν over the record's time scales, in
+    /// `iterations` steps: the RSS is infinite over much of that range, where Brent's
+    /// parabolas have nothing to fit) at `k`'s contact point and exponent: (ν, rss).
     fn best_rate(&self, k: Knobs, iterations: usize) -> (f64, f64) {
         if !self.family.has_relaxation() {
             return (k.nu, self.rss(k));
@@ -484,9 +520,12 @@ impl<'a> Problem<'a> {
 
     /// The best fit over contact points from 3 axis ranges behind the shallowest point
     /// (a record that never leaves contact extrapolates) to the deepest point: a grid over
-    /// the contact point ([`CONTACT_GRID`] cells) on at most [`COARSE_POINTS`] points, then
-    /// golden-section refinements on all of them around the [`REFINED_MINIMA`] best local
-    /// minima of the grid (relaxation rate, contact point with the exponent, twice).
+    /// the contact point ([`CONTACT_GRID`] cells, the exponent and rate by golden section
+    /// in [`GRID_ITERATIONS`]) on at most [`COARSE_POINTS`] points, then refinements on
+    /// all of them around the [`REFINED_MINIMA`] best local minima of the grid (relaxation
+    /// rate by golden section, contact point with the exponent by [`brent`] to
+    /// [`TOLERANCE`]; twice for the relaxation laws), each kept only if it beats its grid
+    /// point.
     pub fn fit(&self) -> Option<LawFit> {
         let (lo, hi) = min_max(&self.u);
         let span = hi - lo;
@@ -498,10 +537,14 @@ impl<'a> Problem<'a> {
         // rss and n at every grid point.
         let grid_pass = |nu: f64| -> Vec<(f64, f64, f64)> {
             (0..=CONTACT_GRID)
+                .into_par_iter()
                 .map(|k| {
                     let uc = a + k as f64 * step;
-                    let (n, rss) =
-                        coarse.best_exponent(Knobs { uc, n: 1.0, nu }, EXPONENT_RANGE, 16);
+                    let (n, rss) = coarse.best_exponent(
+                        Knobs { uc, n: 1.0, nu },
+                        EXPONENT_RANGE,
+                        Search::Golden(GRID_ITERATIONS.0),
+                    );
                     (rss, uc, n)
                 })
                 .collect()
@@ -520,7 +563,7 @@ impl<'a> Problem<'a> {
                         n: best.2,
                         nu,
                     },
-                    20,
+                    GRID_ITERATIONS.1,
                 )
                 .0;
             cells = grid_pass(nu);
@@ -539,31 +582,48 @@ impl<'a> Problem<'a> {
             .collect();
         minima.sort_by(|x, y| x.0.total_cmp(&y.0));
         minima.truncate(REFINED_MINIMA);
-        let mut best: Option<(f64, f64, f64, f64)> = None;
-        for (_, uc0, n0) in minima {
-            let (mut uc, mut n, mut nu_k) = (uc0, n0, nu);
-            let rounds = if self.family.has_relaxation() { 2 } else { 1 };
-            let mut rss = f64::INFINITY;
-            for _ in 0..rounds {
-                if self.family.has_relaxation() {
-                    nu_k = self.best_rate(Knobs { uc, n, nu: nu_k }, 24).0;
+        // Each minimum is refined independently (in parallel; the result does not depend
+        // on the order).
+        let refined: Vec<(f64, f64, f64, f64)> = minima
+            .par_iter()
+            .map(|&(_, uc0, n0)| {
+                let (mut uc, mut n, mut nu_k) = (uc0, n0, nu);
+                let rounds = if self.family.has_relaxation() { 2 } else { 1 };
+                let exponents = |n: f64| {
+                    (
+                        (n - 0.5).max(EXPONENT_RANGE.0),
+                        (n + 0.5).min(EXPONENT_RANGE.1),
+                    )
+                };
+                let exponent = Search::Brent(TOLERANCE.0);
+                // The grid point itself on all points: what the refinement must beat
+                // (Brent's first steps may land where the law is unphysical).
+                let (n_start, rss_start) =
+                    self.best_exponent(Knobs { uc, n, nu: nu_k }, exponents(n), exponent);
+                let start = (rss_start, uc0, n_start, nu_k);
+                let mut rss = f64::INFINITY;
+                for _ in 0..rounds {
+                    if self.family.has_relaxation() {
+                        nu_k = self.best_rate(Knobs { uc, n, nu: nu_k }, 24).0;
+                    }
+                    let bracket = exponents(n);
+                    let (u_best, _) =
+                        Search::Brent(TOLERANCE.1).minimise(uc - step, uc + step, |uc| {
+                            self.best_exponent(Knobs { uc, n, nu: nu_k }, bracket, exponent)
+                                .1
+                        });
+                    uc = u_best;
+                    (n, rss) = self.best_exponent(Knobs { uc, n, nu: nu_k }, bracket, exponent);
                 }
-                let exponents = (
-                    (n - 0.5).max(EXPONENT_RANGE.0),
-                    (n + 0.5).min(EXPONENT_RANGE.1),
-                );
-                let (u_best, _) = golden(uc - step, uc + step, 30, |uc| {
-                    self.best_exponent(Knobs { uc, n, nu: nu_k }, exponents, 20)
-                        .1
-                });
-                uc = u_best;
-                (n, rss) = self.best_exponent(Knobs { uc, n, nu: nu_k }, exponents, 20);
-            }
-            if best.is_none_or(|b| rss < b.0) {
-                best = Some((rss, uc, n, nu_k));
-            }
-        }
-        let (_, uc, n, nu) = best?;
+                if rss <= start.0 {
+                    (rss, uc, n, nu_k)
+                } else {
+                    start
+                }
+            })
+            .collect();
+        // The first of equal minima, as the grid ordered them.
+        let (_, uc, n, nu) = refined.into_iter().min_by(|x, y| x.0.total_cmp(&y.0))?;
         let (theta, rss) = self.solve(Knobs { uc, n, nu })?;
         if !rss.is_finite() {
             return None;
@@ -610,6 +670,45 @@ pub fn min_max(x: &[f64]) -> (f64, f64) {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
             (lo.min(v), hi.max(v))
         })
+}
+
+/// The finite stand-in for an infinite (unphysical) cost in [`brent`]'s parabolic steps.
+const UNPHYSICAL: f64 = 1e100;
+
+/// Brent's minimisation of `f` on \[a, b\] (golden-section steps with parabolic ones where
+/// `f` is smooth: argmin's `BrentOpt`) to within `tolerance` of the argmin (plus √ε
+/// relative), in at most `max_evaluations`: (argmin, min). An infinite `f` (an unphysical
+/// fit) is a large finite value to the parabolic steps and infinite again in the result.
+pub fn brent(
+    a: f64,
+    b: f64,
+    tolerance: f64,
+    max_evaluations: u64,
+    f: impl Fn(f64) -> f64,
+) -> (f64, f64) {
+    struct Cost<F>(F);
+    impl<F: Fn(f64) -> f64> CostFunction for Cost<F> {
+        type Param = f64;
+        type Output = f64;
+        fn cost(&self, x: &f64) -> Result<f64, argmin::core::Error> {
+            let v = (self.0)(*x);
+            Ok(if v < UNPHYSICAL { v } else { UNPHYSICAL })
+        }
+    }
+    let solver = BrentOpt::new(a, b).set_tolerance(f64::EPSILON.sqrt(), tolerance);
+    let run = Executor::new(Cost(&f), solver)
+        .configure(|s| s.max_iters(max_evaluations.saturating_sub(1)))
+        .run();
+    let best = run.ok().and_then(|r| {
+        let state = r.state();
+        state.best_param.map(|x| (x, state.best_cost))
+    });
+    match best {
+        Some((x, cost)) if cost < UNPHYSICAL => (x, cost),
+        Some((x, _)) => (x, f64::INFINITY),
+        // BrentOpt returns no error of its own; the cost cannot fail.
+        None => golden(a, b, 20, f),
+    }
 }
 
 /// Golden-section minimisation of `f` on \[a, b\] in `iterations` steps: (argmin, min).
@@ -723,6 +822,35 @@ mod tests {
         );
         assert!((fit.contact_m - 1e-3).abs() < 3e-6, "{fit:?}");
         assert!((fit.offset_n - 0.2).abs() < 1e-3, "{fit:?}");
+    }
+
+    #[test]
+    fn brent_finds_a_minimum_to_its_tolerance_in_few_evaluations() {
+        let count = std::cell::Cell::new(0);
+        let (x, f) = brent(-3.0, 5.0, 1e-8, MAX_EVALUATIONS, |x| {
+            count.set(count.get() + 1);
+            (x - 1.25) * (x - 1.25) + 2.0
+        });
+        assert!(
+            (x - 1.25).abs() < 1e-6 && (f - 2.0).abs() < 1e-12,
+            "{x} {f}"
+        );
+        // Parabolic steps: far fewer than golden section's ~40 for 1e-8 of an 8-wide bracket.
+        assert!(count.get() < 15, "{} evaluations", count.get());
+        // An unphysical (infinite) region is avoided, not propagated as NaN.
+        let (x, f) = brent(-3.0, 5.0, 1e-8, MAX_EVALUATIONS, |x| {
+            if x < 0.5 {
+                f64::INFINITY
+            } else {
+                (x - 2.0) * (x - 2.0)
+            }
+        });
+        assert!((x - 2.0).abs() < 1e-6 && f < 1e-10, "{x} {f}");
+        // Nothing finite: the answer says so.
+        assert_eq!(
+            brent(0.0, 1.0, 1e-6, 20, |_| f64::INFINITY).1,
+            f64::INFINITY
+        );
     }
 
     #[test]
