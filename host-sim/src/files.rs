@@ -46,6 +46,16 @@ impl Loaded {
     pub fn into_uniform(self) -> Record {
         self.resampled.unwrap_or(self.native)
     }
+
+    /// Samples of the 1 kHz record per sample of the file (1 for a file at 1 kHz or
+    /// faster; 100 for a 10 Hz file): how many of its samples are interpolations of one
+    /// measurement.
+    pub fn samples_per_measurement(&self) -> usize {
+        match self.resampled {
+            Some(_) => (1000.0 / native_rate_hz(&self.native)).round().max(1.0) as usize,
+            None => 1,
+        }
+    }
 }
 
 /// Reads `path` and resamples it to 1 kHz (a 1 kHz file is kept once, not copied).
@@ -650,6 +660,7 @@ pub fn prepare_file(
         front.force_offset_n,
         front.position_sign * front.contact_position_m,
         front.noise_n * (front.series.averaged as f64).sqrt(),
+        loaded.samples_per_measurement(),
     )
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;

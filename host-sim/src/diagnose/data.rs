@@ -9,7 +9,8 @@ use estimator_core::conditioning::{
 use crate::phases::{Phase, PhaseClassifier};
 
 /// Fitting samples are block averages over about this long \[s\] (200 Hz from a 1 kHz
-/// log; slower logs are used sample by sample).
+/// log; a log resampled from a slower file is fitted one block per measurement of the
+/// file).
 pub const BLOCK_S: f64 = 5.0e-3;
 
 /// Longest fitting series: a longer log gets longer blocks (a 60 s, 1 kHz log is fitted
@@ -42,10 +43,14 @@ pub struct Prepared {
     pub force_offset_n: f64,
     /// Contact position x_contact \[m\] (first impact).
     pub contact_position_m: f64,
-    /// Noise level of one fitting sample \[N\] (free-space force spread / √block).
+    /// Noise level of one fitting sample \[N\] (free-space force spread of one measurement
+    /// / √(measurements per block)).
     pub noise_n: f64,
     /// Raw samples per fitting sample.
     pub block: usize,
+    /// Raw samples per measurement of the file the log was resampled from (1 when it was
+    /// not): `block` is a whole number of them.
+    pub measurement_samples: usize,
     /// δ of every raw sample (position − contact position) \[m\], `block` per fitting
     /// sample.
     pub raw_depth_m: Vec<f64>,
@@ -166,16 +171,22 @@ pub fn prepare(
         &position_m[..n],
         &force_n[..n],
         &contact,
-        offset,
-        x_c,
-        noise_raw,
+        Reference {
+            offset,
+            x_c,
+            noise_raw,
+            measurement_samples: 1,
+        },
     ))
 }
 
 /// Prepares a log whose force offset `offset_n` \[N\], contact position `contact_m` \[m\]
 /// (on the log's own position axis, positive into the material) and raw-sample noise
 /// `noise_n` \[N\] are known (the whole-record front end's): contact is geometric,
-/// x > x_contact.
+/// x > x_contact. `measurement_samples`: samples of the log per measurement of the file it
+/// was resampled from (1 when it was not; 100 for a 10 Hz file at 1 kHz): a fitting block
+/// is never shorter than one measurement, since a shorter one would hold interpolations
+/// rather than data (and count one measurement's noise as several).
 ///
 /// # Errors
 /// [`PrepareError`] when the log is too short or never goes beyond the contact point.
@@ -186,6 +197,7 @@ pub fn prepare_known(
     offset_n: f64,
     contact_m: f64,
     noise_n: f64,
+    measurement_samples: usize,
 ) -> Result<Prepared, PrepareError> {
     let n = time_s.len().min(position_m.len()).min(force_n.len());
     if n < MIN_SAMPLES {
@@ -200,10 +212,22 @@ pub fn prepare_known(
         &position_m[..n],
         &force_n[..n],
         &contact,
-        offset_n,
-        contact_m,
-        noise_n,
+        Reference {
+            offset: offset_n,
+            x_c: contact_m,
+            noise_raw: noise_n,
+            measurement_samples,
+        },
     ))
+}
+
+/// What a log is prepared relative to: force offset \[N\], contact position \[m\], noise
+/// of one raw sample \[N\] and raw samples per measurement of the file.
+struct Reference {
+    offset: f64,
+    x_c: f64,
+    noise_raw: f64,
+    measurement_samples: usize,
 }
 
 /// Block means, derivatives and phases of a log with per-sample contact flags, offset,
@@ -213,14 +237,20 @@ fn assemble(
     position_m: &[f64],
     force_n: &[f64],
     contact: &[bool],
-    offset: f64,
-    x_c: f64,
-    noise_raw: f64,
+    reference: Reference,
 ) -> Prepared {
+    let Reference {
+        offset,
+        x_c,
+        noise_raw,
+        measurement_samples,
+    } = reference;
     let n = time_s.len();
     let first = contact.iter().position(|c| *c).unwrap_or(0);
     let native_dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
+    let measurement_samples = measurement_samples.max(1);
     let block = ((BLOCK_S / native_dt).round() as usize)
+        .max(measurement_samples)
         .max(n.div_ceil(MAX_BLOCKS))
         .clamp(1, n / MIN_BLOCKS);
     let blocks = n / block;
@@ -275,7 +305,7 @@ fn assemble(
         phase,
         force_offset_n: offset,
         contact_position_m: x_c,
-        noise_n: noise_raw / (block as f64).sqrt(),
+        noise_n: noise_raw / (block.div_ceil(measurement_samples) as f64).sqrt(),
         raw_depth_m: position_m[..blocks * block]
             .iter()
             .map(|x| x - x_c)
@@ -305,6 +335,7 @@ fn assemble(
             })
             .collect(),
         block,
+        measurement_samples,
         first_contact_end,
         hold_damping: false,
         offset_unidentified: false,
