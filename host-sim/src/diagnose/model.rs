@@ -42,6 +42,18 @@ pub enum Effect {
     PlasticSet,
 }
 
+// `ALL[e as usize] == e`, checked when compiling (the design looks effects up by index).
+const _: () = {
+    let mut i = 0;
+    while i < Effect::ALL.len() {
+        assert!(
+            Effect::ALL[i] as usize == i,
+            "Effect::ALL in declaration order"
+        );
+        i += 1;
+    }
+};
+
 impl Effect {
     /// All effects, in their declaration order (`ALL[e as usize] == e`).
     pub const ALL: [Effect; 10] = [
@@ -56,13 +68,6 @@ impl Effect {
         Effect::CoulombFriction,
         Effect::PlasticSet,
     ];
-    const _ORDER: () = {
-        let mut i = 0;
-        while i < Effect::ALL.len() {
-            assert!(Effect::ALL[i] as usize == i, "ALL in declaration order");
-            i += 1;
-        }
-    };
 
     /// The identifier used in reports and JSON.
     pub fn id(self) -> &'static str {
