@@ -419,16 +419,22 @@ fn design(
         }
         // The core's laws (estimator_core::laws), on δ scaled by the deepest
         // penetration L for conditioning: L·(δ/L)ⁿ and (e^{bδ} − 1)/b.
+        // (ln(δ/L) once for both power laws: the same e^{n·ln x} as laws::power_law.)
         let x = de / l;
+        let ln_x = if has(Effect::PowerLawStiffness) || has(Effect::DepthDependentDamping) {
+            laws::ln_depth(x)
+        } else {
+            None
+        };
         let e = if has(Effect::PowerLawStiffness) {
-            laws::power_law(x, nl.n) * l
+            laws::power_law_of_ln(ln_x, nl.n) * l
         } else if has(Effect::ExponentialStiffness) {
             laws::exponential_law(de, nl.b)
         } else {
             de
         };
         let dv = if has(Effect::DepthDependentDamping) {
-            laws::power_law(x, nl.q) * v
+            laws::power_law_of_ln(ln_x, nl.q) * v
         } else {
             v
         };
@@ -458,7 +464,11 @@ fn design(
         }
         // A block in which the contact begins or ends is averaged sample by sample (the
         // damping step at impact and the onset shape do not average linearly).
-        let b = ((start + i) as f64 - shift).floor().max(0.0) as usize;
+        let b = if shift == 0.0 {
+            start + i
+        } else {
+            ((start + i) as f64 - shift).floor().max(0.0) as usize
+        };
         let (lo, hi) = (
             data.block_min_depth_m[b.min(data.len() - 1)],
             data.block_max_depth_m[(b + 1).min(data.len() - 1)],
