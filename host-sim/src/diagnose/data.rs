@@ -49,7 +49,8 @@ pub struct Prepared {
     /// Raw samples per fitting sample.
     pub block: usize,
     /// Raw samples per measurement of the file the log was resampled from (1 when it was
-    /// not): `block` is a whole number of them.
+    /// not): `block` is at least this (a whole number of them only when the
+    /// [`MAX_BLOCKS`] bound does not lengthen it).
     pub measurement_samples: usize,
     /// δ of every raw sample (position − contact position) \[m\], `block` per fitting
     /// sample.

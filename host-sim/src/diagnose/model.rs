@@ -811,7 +811,8 @@ fn evaluate(
     let y = &data.force_n[start..];
     let full = design(data, start, effects, nl, scale);
     // The iteration starts with the samples within 3 noise levels of zero separated, the
-    // noise that of a block mean of independent 1 kHz samples (for a resampled log lower
+    // noise that of a block mean of independent 1 kHz samples (exactly so when the block
+    // is a whole number of measurements; for a resampled log lower
     // than a block's own, `noise_n`: on the AFM relaxation file that higher start leaves
     // the relaxation search in a worse basin, 2.24 % instead of 2.04 %).
     let touch_start = 3.0 * data.noise_n / (data.measurement_samples.max(1) as f64).sqrt();

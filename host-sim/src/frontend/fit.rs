@@ -212,6 +212,9 @@ pub const GRID_ITERATIONS: (usize, usize) = (12, 20);
 /// (scaled by the position range).
 pub const TOLERANCE: (f64, f64) = (2e-5, 1e-7);
 
+/// Golden-section iterations of the refinement's search over ln ν on all points.
+pub const RATE_ITERATIONS: usize = 24;
+
 /// A one-dimensional minimisation.
 #[derive(Debug, Clone, Copy)]
 enum Search {
@@ -523,7 +526,8 @@ impl<'a> Problem<'a> {
     /// the contact point ([`CONTACT_GRID`] cells, the exponent and rate by golden section
     /// in [`GRID_ITERATIONS`]) on at most [`COARSE_POINTS`] points, then refinements on
     /// all of them around the [`REFINED_MINIMA`] best local minima of the grid (relaxation
-    /// rate by golden section, contact point with the exponent by [`brent`] to
+    /// rate by golden section in [`RATE_ITERATIONS`], contact point with the exponent by
+    /// [`brent`] to
     /// [`TOLERANCE`]; twice for the relaxation laws), each kept only if it beats its grid
     /// point.
     pub fn fit(&self) -> Option<LawFit> {
@@ -604,7 +608,7 @@ impl<'a> Problem<'a> {
                 let mut rss = f64::INFINITY;
                 for _ in 0..rounds {
                     if self.family.has_relaxation() {
-                        nu_k = self.best_rate(Knobs { uc, n, nu: nu_k }, 24).0;
+                        nu_k = self.best_rate(Knobs { uc, n, nu: nu_k }, RATE_ITERATIONS).0;
                     }
                     let bracket = exponents(n);
                     let (u_best, _) =
