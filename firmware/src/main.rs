@@ -117,13 +117,8 @@ pub struct Latest {
     frame: estimator_core::telemetry::TelemetryFrame,
     /// Mean amplifier output \[V\] of the last samples (NaN until a valid one).
     load_cell_v: f32,
-    /// Telemetry frames the sample task could not hand over (the task was still busy), or
-    /// that `telemetry` found stale (the pipeline had moved past the frame's sample).
+    /// Telemetry frames the sample task could not hand over (the task was still busy).
     telemetry_skipped: u32,
-    /// The last sample the pipeline took: the frame's parameters are the pipeline's
-    /// while this equals `frame.sample` (`commands` makes it differ when it replaces the
-    /// estimator).
-    pipeline_sample: u32,
 }
 
 #[rtic::app(device = stm32f4::stm32f405, dispatchers = [EXTI1, EXTI2])]
@@ -265,7 +260,6 @@ mod app {
             },
             load_cell_v: f32::NAN,
             telemetry_skipped: 0,
-            pipeline_sample: 0,
         };
         let (requests, inbox) = make_channel!(Inbound, REQUEST_QUEUE);
         let _ = commands::spawn();
@@ -349,16 +343,19 @@ mod app {
         let due = sample.is_multiple_of(u32::from(period.max(1)));
         let load_cell_v = *l.load_cell_v;
         if due {
-            // The frame is filled for the samples telemetry sends; the estimator's model
-            // and SI parameters are added by `telemetry` (priority 1), which reads them from
-            // the pipeline while it is still at this sample.
+            // The frame is filled for the samples telemetry sends, and only then are the
+            // estimator's parameters converted to SI.
+            let (model, parameters) = shared
+                .pipeline
+                .lock(|p| (p.estimator().kind(), p.estimator().parameters()));
             let status = out.status | *l.latched;
             let (overruns, lost_periods) = (*l.overruns, *l.lost_periods);
             shared.latest.lock(|latest| {
-                latest.pipeline_sample = sample;
                 let f = &mut latest.frame;
                 f.sample = sample;
                 f.period_samples = period;
+                f.model = model;
+                f.parameters = parameters;
                 f.contact = out.contact;
                 f.depth_m = out.sample.depth_m;
                 f.force_n = out.sample.force_n;
@@ -373,10 +370,9 @@ mod app {
             });
             *l.latched = Status::empty();
         } else {
-            shared.latest.lock(|latest| {
-                latest.load_cell_v = load_cell_v;
-                latest.pipeline_sample = sample;
-            });
+            shared
+                .latest
+                .lock(|latest| latest.load_cell_v = load_cell_v);
         }
         shared.watchdog.lock(|w| w.feed());
         if l.timer.overran() {
@@ -450,33 +446,12 @@ mod app {
 
     /// One telemetry frame (the sample's, taken when the sample was), 1 Hz defmt log; the
     /// boot report again with the first frames.
-    ///
-    /// The frame's model and SI parameters are read here, not in `sample`: the pipeline
-    /// and `latest` under one lock, so the sample task cannot step in between. Normally
-    /// this runs within the frame's own period (queuing takes far less than a period) and
-    /// the pipeline is still at the frame's sample; a frame whose sample the pipeline has
-    /// left (this task held up, e.g. by a flash write in `commands`) is not sent but
-    /// counted with the skipped ones, as its parameters would be of another sample.
-    #[task(priority = 1, shared = [pipeline, latest, link],
-           local = [telemetry_boot, boot_sent: u8 = 0])]
-    async fn telemetry(cx: telemetry::Context) {
-        let mut shared = cx.shared;
-        let (latest, current) = (&mut shared.pipeline, &mut shared.latest).lock(|p, latest| {
-            let current = latest.pipeline_sample == latest.frame.sample;
-            if current {
-                latest.frame.model = p.estimator().kind();
-                latest.frame.parameters = p.estimator().parameters();
-            } else {
-                latest.telemetry_skipped = latest.telemetry_skipped.wrapping_add(1);
-            }
-            (*latest, current)
-        });
-        if !current {
-            return;
-        }
+    #[task(priority = 1, shared = [latest, link], local = [telemetry_boot, boot_sent: u8 = 0])]
+    async fn telemetry(mut cx: telemetry::Context) {
+        let latest = cx.shared.latest.lock(|latest| *latest);
         let boot = cx.local.telemetry_boot;
         let boot_sent = cx.local.boot_sent;
-        shared.link.lock(|link| {
+        cx.shared.link.lock(|link| {
             let mut frame = latest.frame;
             frame.frames_dropped = link
                 .queue
@@ -538,15 +513,7 @@ mod app {
                             let mut result = Ok(ack);
                             if effects.rebuild_estimator {
                                 match estimator(&settings) {
-                                    Ok(e) => (&mut cx.shared.pipeline, &mut cx.shared.latest).lock(
-                                        |p, latest| {
-                                            p.replace_estimator(e);
-                                            // A frame still waiting for `telemetry` was
-                                            // taken with the old estimator: stale now.
-                                            latest.pipeline_sample =
-                                                latest.frame.sample.wrapping_add(1);
-                                        },
-                                    ),
+                                    Ok(e) => cx.shared.pipeline.lock(|p| p.replace_estimator(e)),
                                     Err(e) => result = Err(e),
                                 }
                             }
