@@ -448,6 +448,48 @@ fn design(
     };
     let block = data.block;
     let half = (block as f64 - 1.0) / 2.0;
+    // Block means of the laws over a block of B > 1 raw samples in contact, from the
+    // quadratic δ(u) = δ̄ + δ̇·u·T/B + ½δ̈·(u² − σ²)·(T/B)² through the block means (u the
+    // raw sample's offset from the block's centre, σ² = (B² − 1)/12 its variance over the
+    // block, δ̄, δ̇ and δ̈ the prepared depth, rate and acceleration): a curved law averaged
+    // over a 16 ms block of a 2 Hz tap differs from its value at δ̄ by about the noise of
+    // a block, a systematic error the fit would otherwise name inertia or a delay.
+    // - elastic: the two-point rule at u = ±σ, where δ = δ̄ ± σ·δ̇·T/B (exact for a law
+    //   quadratic in u; the linear spring's mean is δ̄ itself);
+    // - damping: the mean of g(δ)·δ̇ is the increment of the antiderivative of g across the
+    //   block, u = ±B/2, divided by T: δ̇ itself for λ·δ̇, L·Δ(δ/L)^{q+1}/((q + 1)·T) for
+    //   λ·δ^q·δ̇ (q ≥ 0.1).
+    let spread = ((block * block) as f64 - 1.0).max(0.0).sqrt() / 12f64.sqrt();
+    let per_sample = data.dt / block as f64;
+    let elastic_law = |de: f64| -> f64 {
+        if has(Effect::PowerLawStiffness) {
+            laws::power_law_of_ln(laws::ln_depth(de / l), nl.n) * l
+        } else if has(Effect::ExponentialStiffness) {
+            laws::exponential_law(de, nl.b)
+        } else {
+            de
+        }
+    };
+    let block_mean_elastic = |mean: f64, rate: f64| -> f64 {
+        if has(Effect::PowerLawStiffness) || has(Effect::ExponentialStiffness) {
+            let s = spread * rate * per_sample;
+            0.5 * (elastic_law(mean - s) + elastic_law(mean + s))
+        } else {
+            mean
+        }
+    };
+    let curvature = (2.0 * (block * block) as f64 + 1.0) / 24.0 * per_sample * per_sample;
+    let block_mean_damping = |mean: f64, rate: f64, accel: f64| -> f64 {
+        if has(Effect::DepthDependentDamping) {
+            let q1 = nl.q + 1.0;
+            let integral = |d: f64| laws::power_law_of_ln(laws::ln_depth(d / l), q1) * l / q1;
+            let middle = mean + accel * curvature;
+            let half_step = 0.5 * rate * data.dt;
+            (integral(middle + half_step) - integral(middle - half_step)) / data.dt
+        } else {
+            rate
+        }
+    };
     for i in 0..n {
         // δ from the refined first-impact point; later contacts from the shifted one.
         // (The knob moves the first contact's point, so that the shared refinement
@@ -502,6 +544,21 @@ fn design(
             }
             let k = block as f64;
             (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k, sum.4 / k)
+        } else if block > 1 {
+            // A block inside or outside contact: the mean of the laws over its raw samples
+            // (see `block_mean_elastic`), not their value at the block's mean depth.
+            let de = series(0, i) - reference;
+            if de <= 0.0 {
+                terms(de, v)
+            } else {
+                (
+                    1.0,
+                    block_mean_elastic(de, v),
+                    block_mean_damping(de, v, series(2, i)),
+                    if coulomb_on { (v / v0).tanh() } else { 0.0 },
+                    de,
+                )
+            }
         } else {
             let de = series(0, i) - reference;
             terms(de, v)
@@ -974,6 +1031,9 @@ impl Effort {
     };
 }
 
+/// Intervals of the grid over the contact position's range after a fit (see [`fit`]).
+const CONTACT_GRID: usize = 16;
+
 /// The nonlinear least-squares problem of one model: knobs mapped to [0, 1] (log scale
 /// where the range spans decades), residuals from the variable projection.
 struct Problem<'a> {
@@ -1042,6 +1102,42 @@ impl Problem<'_> {
             })
             .collect();
         Some((r, rss))
+    }
+
+    /// Every law trades against the contact position, whose RSS has several minima (a
+    /// contact at the end of its range, an early one, a late one), and a search can end
+    /// in the wrong one: where a point of a [`CONTACT_GRID`] over its range, the other
+    /// knobs of `nl` (RSS `rss`) held, fits better, the joint Levenberg-Marquardt on
+    /// `knobs` runs again from there. Returns the best of the three.
+    fn contact_grid(
+        &self,
+        nl: Nonlinear,
+        rss: f64,
+        knobs: &[Knob],
+        iterations: usize,
+    ) -> Nonlinear {
+        let on_grid = (0..=CONTACT_GRID)
+            .map(|g| {
+                let mut trial = nl;
+                let u = g as f64 / CONTACT_GRID as f64;
+                trial.set(
+                    Knob::ContactPosition,
+                    self.value_at_unit(Knob::ContactPosition, u),
+                );
+                (self.rss(&trial), trial)
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        match on_grid {
+            Some((grid_rss, trial)) if grid_rss < rss => {
+                let (again, again_rss) = self.levenberg_marquardt(trial, knobs, iterations);
+                if again_rss <= grid_rss {
+                    again
+                } else {
+                    trial
+                }
+            }
+            _ => nl,
+        }
     }
 
     fn rss(&self, nl: &Nonlinear) -> f64 {
@@ -1221,7 +1317,12 @@ pub fn fit(
         }
         nl = best.2;
     }
-    let (nl, _) = problem.levenberg_marquardt(nl, &knobs, effort.iterations);
+    let (nl, rss) = problem.levenberg_marquardt(nl, &knobs, effort.iterations);
+    let nl = if effort.golden > 0 && knobs.contains(&Knob::ContactPosition) {
+        problem.contact_grid(nl, rss, &knobs, effort.iterations)
+    } else {
+        nl
+    };
     let scale = problem.scale;
     let (rss, design, solve, _) = evaluate(data, start, effects, &nl, &scale, 4, None)?;
     let y = &data.force_n[start..];
