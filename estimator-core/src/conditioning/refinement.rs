@@ -71,9 +71,21 @@ pub struct OnsetPair {
     pub low: RisePoint,
     /// First point at or above twice the onset threshold.
     pub high: RisePoint,
+    /// ln(F2/F1), once per pair: the contact point is extrapolated again each time the
+    /// exponent moves, with one `expf` and no `logf`.
+    ln_force_ratio: f32,
 }
 
 impl OnsetPair {
+    /// The pair through `low` and `high` (forces > 0 for an extrapolation).
+    pub fn new(low: RisePoint, high: RisePoint) -> Self {
+        OnsetPair {
+            low,
+            high,
+            ln_force_ratio: libm::logf(high.force_n / low.force_n),
+        }
+    }
+
     /// Contact point \[m\] along F ∝ (x − x_c)ⁿ through the pair, or `provisional_m` (the
     /// threshold's point) if the extrapolation is not
     /// plausible: deeper than the provisional point, further back than five times the
@@ -86,10 +98,11 @@ impl OnsetPair {
         if !(exponent.is_finite() && exponent > 0.2 && exponent < 10.0) {
             return provisional_m;
         }
-        let (x1, f1) = (self.low.position_m, self.low.force_n);
-        let (x2, f2) = (self.high.position_m, self.high.force_n);
-        // (F2/F1)^(1/n) as one logf and one expf: a third of powf on the Cortex-M4F.
-        let r = libm::expf(libm::logf(f2 / f1) / exponent);
+        let x1 = self.low.position_m;
+        let x2 = self.high.position_m;
+        // (F2/F1)^(1/n) as one expf of the pair's ln(F2/F1): a sixth of powf on the
+        // Cortex-M4F.
+        let r = libm::expf(self.ln_force_ratio / exponent);
         let candidate = x1 - (x2 - x1) / (r - 1.0);
         if candidate.is_finite() && candidate < provisional_m && candidate > x1 - 5.0 * (x2 - x1) {
             max(candidate, min(free_space_min_m, provisional_m))
@@ -173,7 +186,7 @@ impl OnsetRefiner {
             && point.position_m > low.position_m
             && elapsed >= self.min_span_samples
             && !timed_out)
-            .then_some(OnsetPair { low, high: point })
+            .then(|| OnsetPair::new(low, point))
     }
 }
 
