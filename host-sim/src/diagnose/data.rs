@@ -365,7 +365,7 @@ impl Prepared {
         let raw = self.raw_depth_m.len();
         let b = self.block;
         let x0 = x0.clamp(0.0, (raw - b) as f64);
-        let k = x0.floor() as usize;
+        let k = x0 as usize; // x0 ≥ 0: the floor
         let f = x0 - k as f64;
         let p = &self.raw_depth_prefix;
         let mean = |a: usize| (p[(a + b).min(raw)] - p[a.min(raw)]) / b as f64;
