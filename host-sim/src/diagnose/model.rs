@@ -472,25 +472,59 @@ fn design(
             de
         }
     };
-    let block_mean_elastic = |mean: f64, rate: f64| -> f64 {
-        if has(Effect::PowerLawStiffness) || has(Effect::ExponentialStiffness) {
-            let s = spread * rate * per_sample;
-            0.5 * (elastic_law(mean - s) + elastic_law(mean + s))
+    let curvature = (2.0 * (block * block) as f64 + 1.0) / 24.0 * per_sample * per_sample;
+    // (elastic, damping) block means at mean depth δ̄ > 0, rate δ̇ and acceleration δ̈.
+    // Where the spread s = σ·δ̇·T/B, the half-increment h = δ̇·T/2 and the shift
+    // c = δ̈·(2B² + 1)/24·(T/B)² of the middle are below a tenth of δ̄ (and b·s below a
+    // tenth), by the rules' Taylor series about δ̄, from one ln δ̄: f + ½f''·s² for the
+    // elastic law (f'' = n(n − 1)·f/δ̄², b·(b·f + 1)), δ̇·g(δ̄ + c)·(1 + q(q − 1)·h²/(6(δ̄ + c)²))
+    // for the damping; the next terms are ~(s/δ̄)⁴, below 10⁻⁵ of the law. Elsewhere (the
+    // first blocks of a contact) by the rules themselves.
+    let block_means = |mean: f64, rate: f64, accel: f64| -> (f64, f64) {
+        let s = spread * rate * per_sample;
+        let h = 0.5 * rate * data.dt;
+        let c = accel * curvature;
+        let small = |x: f64| x * x < 1e-2 * mean * mean;
+        let ln_x = if has(Effect::PowerLawStiffness) || has(Effect::DepthDependentDamping) {
+            laws::ln_depth(mean / l)
+        } else {
+            None
+        };
+        let elastic = if has(Effect::PowerLawStiffness) {
+            if small(s) {
+                let f = laws::power_law_of_ln(ln_x, nl.n) * l;
+                f * (1.0 + 0.5 * nl.n * (nl.n - 1.0) * (s / mean) * (s / mean))
+            } else {
+                0.5 * (elastic_law(mean - s) + elastic_law(mean + s))
+            }
+        } else if has(Effect::ExponentialStiffness) {
+            if small(s) && (nl.b * s) * (nl.b * s) < 1e-2 {
+                let f = laws::exponential_law(mean, nl.b);
+                f + 0.5 * nl.b * (nl.b * f + 1.0) * s * s
+            } else {
+                0.5 * (elastic_law(mean - s) + elastic_law(mean + s))
+            }
         } else {
             mean
-        }
-    };
-    let curvature = (2.0 * (block * block) as f64 + 1.0) / 24.0 * per_sample * per_sample;
-    let block_mean_damping = |mean: f64, rate: f64, accel: f64| -> f64 {
-        if has(Effect::DepthDependentDamping) {
-            let q1 = nl.q + 1.0;
-            let integral = |d: f64| laws::power_law_of_ln(laws::ln_depth(d / l), q1) * l / q1;
-            let middle = mean + accel * curvature;
-            let half_step = 0.5 * rate * data.dt;
-            (integral(middle + half_step) - integral(middle - half_step)) / data.dt
+        };
+        let damping = if has(Effect::DepthDependentDamping) {
+            let q = nl.q;
+            let middle = mean + c;
+            if small(h) && small(c) {
+                // ln(δ̄ + c) = ln δ̄ + ln(1 + c/δ̄), the latter to third order (|c/δ̄| < 0.1).
+                let r = c / mean;
+                let ln_middle = ln_x.map(|x| x + r - 0.5 * r * r + r * r * r / 3.0);
+                let g = laws::power_law_of_ln(ln_middle, q);
+                rate * g * (1.0 + q * (q - 1.0) * (h / middle) * (h / middle) / 6.0)
+            } else {
+                let q1 = q + 1.0;
+                let integral = |d: f64| laws::power_law_of_ln(laws::ln_depth(d / l), q1) * l / q1;
+                (integral(middle + h) - integral(middle - h)) / data.dt
+            }
         } else {
             rate
-        }
+        };
+        (elastic, damping)
     };
     for i in 0..n {
         // δ from the refined first-impact point; later contacts from the shifted one.
@@ -549,15 +583,16 @@ fn design(
             (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k, sum.4 / k)
         } else if block > 1 {
             // A block inside or outside contact: the mean of the laws over its raw samples
-            // (see `block_mean_elastic`), not their value at the block's mean depth.
+            // (see `block_means`), not their value at the block's mean depth.
             let de = series(0, i) - reference;
             if de <= 0.0 {
                 terms(de, v)
             } else {
+                let (e, dv) = block_means(de, v, series(2, i));
                 (
                     1.0,
-                    block_mean_elastic(de, v),
-                    block_mean_damping(de, v, series(2, i)),
+                    e,
+                    dv,
                     if coulomb_on { (v / v0).tanh() } else { 0.0 },
                     de,
                 )
