@@ -206,10 +206,14 @@ fn error_is_reported_per_file_and_the_others_still_run() {
         b"time_s,position_m,force_n\n0,0,x\n0.001,0,0\n",
     );
     let empty = write(&dir, "empty.csv", b"");
+    // The summary goes into the temporary folder, not ./out (the shipped outputs).
+    let summary = dir.path().join("summary");
     let o = host_sim(&[
         "estimate",
         "--model",
         "kelvin-voigt",
+        "--summary",
+        summary.to_str().expect("UTF-8 path"),
         bad.to_str().expect("UTF-8 path"),
         empty.to_str().expect("UTF-8 path"),
     ]);
@@ -226,6 +230,12 @@ fn error_is_reported_per_file_and_the_others_still_run() {
             format!("error: {}: the file is empty", empty.display()),
             "error: 2 of 2 files failed".to_string(),
         ]
+    );
+    let rows = std::fs::read_to_string(summary.join("summary.csv")).expect("summary.csv");
+    assert_eq!(rows.lines().count(), 3, "{rows}");
+    assert!(
+        rows.lines().skip(1).all(|l| l.contains(",error,")),
+        "{rows}"
     );
 }
 
