@@ -512,6 +512,17 @@ fn diagnose_one(
             );
         }
     }
+    for r in &d.removed {
+        let _ = writeln!(
+            text,
+            "  backward check: - {}  NRMSE -> {:.3} % (keeping it: ΔBIC {:+.0}, held-out {:+.2} %, {} folds better: short of the acceptance rule)",
+            r.effect.id(),
+            r.after.nrmse_percent,
+            r.kept.delta_bic,
+            100.0 * r.kept.cv_improvement,
+            r.kept.folds_better
+        );
+    }
     if !d.unidentifiable.is_empty() {
         let _ = writeln!(
             text,

@@ -70,6 +70,13 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "vaf_percent_baseline": d.baseline_fit.vaf_percent,
         "steps": steps,
         "effects_added": d.effects_added(),
+        "effects_removed": d.removed.iter().map(|r| json!({
+            "effect": r.effect.id(),
+            "delta_bic_of_keeping": r.kept.delta_bic,
+            "cv_improvement_of_keeping": r.kept.cv_improvement,
+            "folds_better_of_keeping": r.kept.folds_better,
+            "nrmse_percent_after": r.after.nrmse_percent,
+        })).collect::<Vec<_>>(),
         "final_model": d.final_model(),
         "final_parameters": parameters,
         "final_standard_errors": uncertainties,
@@ -264,7 +271,7 @@ pub fn markdown(
     );
     let _ = writeln!(
         out,
-        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps).\n",
+        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps). At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
         options.min_bic_drop,
         super::model::FOLDS,
         100.0 * options.min_cv_improvement,
@@ -306,6 +313,21 @@ pub fn markdown(
             s.after.nrmse_percent,
             s.before.bic,
             s.after.bic
+        );
+    }
+    for (i, r) in d.removed.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "| {}, backward check | `{}` removed: keeping it gained ΔBIC {:+.1}, held-out {:+.2} % on {}/{} folds, short of the rule | {} | → {:.3} | → {:.0} |",
+            d.steps.len() + i + 1,
+            r.effect.id(),
+            r.kept.delta_bic,
+            100.0 * r.kept.cv_improvement,
+            r.kept.folds_better,
+            super::model::FOLDS,
+            parameters_text(&r.after),
+            r.after.nrmse_percent,
+            r.after.bic
         );
     }
     let ambiguous: Vec<String> = d
