@@ -219,8 +219,10 @@ pub struct Diagnosis {
     pub noise_sample_fraction: Option<f64>,
     /// [`rate_spread_at_depth`] of the record.
     pub rate_spread: f64,
-    /// Effects not tried because the record cannot identify them (the rate effects when
-    /// the spread is below [`RATE_SPREAD_MIN`]).
+    /// Effects not tried because the record cannot identify them (the rate effects,
+    /// relaxation and a plastic set when the spread is below [`RATE_SPREAD_MIN`]; a
+    /// force offset that trades against the contact point; a later contact point with one
+    /// contact).
     pub unidentifiable: Vec<Effect>,
 }
 
@@ -268,6 +270,9 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             // δ from a set contact point, (1 − p)·δ on a curve that only loads: the
             // elastic law's own scale.
             Effect::PlasticSet => one_speed,
+            // On a record that passes each depth once, the time since contact is a
+            // function of depth: a relaxing memory of F_e(δ) is one more elastic law.
+            Effect::Relaxation => one_speed,
             // A shifted point for the later contacts: with none, the contact refinement.
             Effect::ContactPointOffset => data.first_contact_end >= data.len(),
             _ => one_speed && e.is_rate_effect(),
@@ -641,6 +646,11 @@ pub fn unidentifiable_reason(e: Effect) -> (&'static str, &'static str) {
         (
             "the record only loads: a contact point that follows the deepest indentation scales δ by (1 − p), which the elastic law's own parameters absorb",
             "an unloading (a permanent set shows as a later release)",
+        )
+    } else if e == Effect::Relaxation {
+        (
+            "each depth is passed once, at one speed: the time since contact is a function of depth, so a relaxing memory of the elastic force is one more elastic law (the elastic reading is kept)",
+            separating_motion(Effect::PowerLawStiffness, e),
         )
     } else if e == Effect::ContactPointOffset {
         (
