@@ -1,7 +1,9 @@
 //! The discrepancy workflow on constant-speed indentations (the most common lab test),
 //! written as CSV files and read back like a user's: at one speed, damping λ·δ^q·δ̇ is
 //! (λv)·δ^q, a power-law spring, and the elastic reading is the physical one. A record
-//! that loads and unloads at that speed separates them (damping would show hysteresis).
+//! that loads and unloads at that speed separates them (damping would show hysteresis),
+//! but not damping from Coulomb friction (both ±F at ±v) or a mass (δ̈ = 0 but at the
+//! reversal): those two are listed, not tried.
 
 use std::io::Write as _;
 use std::path::Path;
@@ -80,7 +82,10 @@ fn loading_ramp_names_the_power_law_never_damping() {
 fn load_unload_ramp_tries_damping_and_still_names_the_power_law() {
     let dir = tempfile::tempdir().expect("tempdir");
     let d = ramp(dir.path(), "triangle.csv", 1.4, 0.05, true, 8);
-    assert!(d.unidentifiable.is_empty(), "{:?}", d.unidentifiable);
+    // Damping is tried (loading and unloading separate it from the law); at one speed
+    // each way a sign law is ±λv and δ̈ vanishes: Coulomb friction and inertia are not.
+    let untried: Vec<&str> = d.unidentifiable.iter().map(|e| e.id()).collect();
+    assert_eq!(untried, ["inertia", "coulomb_friction"]);
     assert_eq!(
         d.effects_added(),
         ["power_law_stiffness"],

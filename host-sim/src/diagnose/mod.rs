@@ -219,8 +219,11 @@ pub struct Diagnosis {
     pub noise_sample_fraction: Option<f64>,
     /// [`rate_spread_at_depth`] of the record.
     pub rate_spread: f64,
+    /// [`speed_spread_at_depth`] of the record.
+    pub speed_spread: f64,
     /// Effects not tried because the record cannot identify them (the rate effects,
-    /// relaxation and a plastic set when the spread is below [`RATE_SPREAD_MIN`]; a
+    /// relaxation and a plastic set when the spread is below [`RATE_SPREAD_MIN`];
+    /// Coulomb friction and inertia when the speed's spread is; a
     /// force offset that trades against the contact point; a later contact point with one
     /// contact).
     pub unidentifiable: Vec<Effect>,
@@ -262,6 +265,10 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // disguise: not tried, listed, and the baseline's own damping held at 0.
     let rate_spread = rate_spread_at_depth(data, data.fit_start());
     let one_speed = rate_spread < RATE_SPREAD_MIN;
+    // Passed at one speed each way (loading and unloading): a sign law is ±λv, and δ̈
+    // vanishes but at the reversals.
+    let speed_spread = speed_spread_at_depth(data, data.fit_start());
+    let one_speed_each_way = speed_spread < RATE_SPREAD_MIN;
     let hold_tare = one_speed && data.offset_unidentified;
     let unidentifiable: Vec<Effect> = Effect::ALL
         .into_iter()
@@ -275,6 +282,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             Effect::Relaxation => one_speed,
             // A shifted point for the later contacts: with none, the contact refinement.
             Effect::ContactPointOffset => data.first_contact_end >= data.len(),
+            Effect::CoulombFriction | Effect::Inertia => one_speed || one_speed_each_way,
             _ => one_speed && e.is_rate_effect(),
         })
         .collect();
@@ -470,6 +478,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         final_fit: current,
         noise_sample_fraction: noise_fraction,
         rate_spread,
+        speed_spread,
         unidentifiable,
     })
 }
@@ -533,9 +542,24 @@ pub fn delta_bic(a: &Fit, b: &Fit, n_eff: f64, floor: f64) -> f64 {
 /// delay, δ̈, sign δ̇) is a function of depth on this record, the same signature as an
 /// elastic law: not identifiable.
 pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
+    spread_at_depth(data, start, |v| v)
+}
+
+/// [`rate_spread_at_depth`] of the speed |δ̇|: about 0 also on a record that passes each
+/// depth at one speed in each direction (a load/unload triangle at one speed), where a
+/// sign law, Coulomb friction F_c·sign δ̇, is the linear damping's λ·δ̇ = ±λv and δ̈
+/// vanishes but at the reversals. Below [`RATE_SPREAD_MIN`], Coulomb friction and
+/// inertia are not identifiable.
+pub fn speed_spread_at_depth(data: &Prepared, start: usize) -> f64 {
+    spread_at_depth(data, start, f64::abs)
+}
+
+/// The within-depth-bin spread of `of(δ̇)` relative to its RMS (see
+/// [`rate_spread_at_depth`]).
+fn spread_at_depth(data: &Prepared, start: usize, of: impl Fn(f64) -> f64) -> f64 {
     let mut samples: Vec<(f64, f64)> = (start..data.len())
         .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0)
-        .map(|i| (data.depth_m[i], data.rate_m_per_s[i]))
+        .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
         .collect();
     if samples.len() < 40 {
         return 0.0;
@@ -641,8 +665,15 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
 
 /// Why the record cannot identify an effect the workflow did not try, and the motion
 /// that would: (reason, motion).
-pub fn unidentifiable_reason(e: Effect) -> (&'static str, &'static str) {
-    if e == Effect::PlasticSet {
+pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
+    let each_way =
+        d.rate_spread >= RATE_SPREAD_MIN && matches!(e, Effect::CoulombFriction | Effect::Inertia);
+    if each_way {
+        (
+            "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ vanishes but at the reversals, where a sampled record cannot place the step within a sample",
+            "a second speed (damping scales with it, friction does not) or smooth reversals (a mass needs accelerations)",
+        )
+    } else if e == Effect::PlasticSet {
         (
             "the record only loads: a contact point that follows the deepest indentation scales δ by (1 − p), which the elastic law's own parameters absorb",
             "an unloading (a permanent set shows as a later release)",

@@ -85,8 +85,9 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "elastic_force_table": elastic_force_table(d, data),
         "noise_sample_fraction": d.noise_sample_fraction,
         "rate_spread_at_depth": d.rate_spread,
+        "speed_spread_at_depth": d.speed_spread,
         "not_identifiable": d.unidentifiable.iter().map(|e| {
-            let (why, motion) = super::unidentifiable_reason(*e);
+            let (why, motion) = super::unidentifiable_reason(d, *e);
             json!({"effect": e.id(), "why": why, "separating_motion": motion})
         }).collect::<Vec<_>>(),
     })
@@ -355,8 +356,14 @@ pub fn markdown(
         .collect();
     let mut ambiguous = ambiguous;
     for (k, e) in d.unidentifiable.iter().enumerate() {
-        let (why, motion) = super::unidentifiable_reason(*e);
-        let spread = if e.is_rate_effect() {
+        let (why, motion) = super::unidentifiable_reason(d, *e);
+        let spread = if e.is_rate_effect() && d.rate_spread >= super::RATE_SPREAD_MIN {
+            format!(
+                " (spread of |δ̇| at a depth {:.2} of its RMS, below {})",
+                d.speed_spread,
+                super::RATE_SPREAD_MIN
+            )
+        } else if e.is_rate_effect() {
             format!(
                 " (spread of δ̇ at a depth {:.2} of its RMS, below {})",
                 d.rate_spread,
