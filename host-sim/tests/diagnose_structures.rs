@@ -171,6 +171,18 @@ struct Tally {
     n_within: usize,
 }
 
+impl std::ops::AddAssign for Tally {
+    fn add_assign(&mut self, t: Tally) {
+        self.logs += t.logs;
+        self.errors += t.errors;
+        self.right += t.right;
+        self.unidentifiable_named += t.unidentifiable_named;
+        self.extra += t.extra;
+        self.n_named += t.n_named;
+        self.n_within += t.n_within;
+    }
+}
+
 fn tally(structure: Structure, hidden: &[&'static str], outcomes: &[Outcome]) -> Tally {
     let (can, cannot) = identifiable(structure, hidden);
     let n_determined = !(structure == Structure::RampLoad && hidden.contains(&"relaxation"));
@@ -336,15 +348,7 @@ fn every_structure_quick_run() {
             Structure::ContactSinesLong
         };
         match pooled.iter_mut().find(|(s, pm, _)| *s == key && *pm == m) {
-            Some((_, _, p)) => {
-                p.logs += t.logs;
-                p.errors += t.errors;
-                p.right += t.right;
-                p.unidentifiable_named += t.unidentifiable_named;
-                p.extra += t.extra;
-                p.n_named += t.n_named;
-                p.n_within += t.n_within;
-            }
+            Some((_, _, p)) => *p += t,
             None => pooled.push((key, m, t)),
         }
     }

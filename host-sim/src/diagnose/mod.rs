@@ -244,6 +244,13 @@ impl Diagnosis {
         out.into_iter().map(Effect::id).collect()
     }
 
+    /// The record passes each depth at one speed in each direction but not at one speed
+    /// overall (a load/unload triangle): the case in which Coulomb friction and inertia
+    /// are not tried while the other rate effects are.
+    pub fn one_speed_each_way_only(&self) -> bool {
+        self.rate_spread >= RATE_SPREAD_MIN && self.speed_spread < RATE_SPREAD_MIN
+    }
+
     /// "kelvin-voigt + power_law_stiffness + …".
     pub fn final_model(&self) -> String {
         let mut s = self.baseline.name().to_string();
@@ -666,9 +673,7 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
 /// Why the record cannot identify an effect the workflow did not try, and the motion
 /// that would: (reason, motion).
 pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
-    let each_way =
-        d.rate_spread >= RATE_SPREAD_MIN && matches!(e, Effect::CoulombFriction | Effect::Inertia);
-    if each_way {
+    if d.one_speed_each_way_only() && matches!(e, Effect::CoulombFriction | Effect::Inertia) {
         (
             "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ vanishes but at the reversals, where a sampled record cannot place the step within a sample",
             "a second speed (damping scales with it, friction does not) or smooth reversals (a mass needs accelerations)",

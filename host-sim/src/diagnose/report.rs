@@ -357,7 +357,7 @@ pub fn markdown(
     let mut ambiguous = ambiguous;
     for (k, e) in d.unidentifiable.iter().enumerate() {
         let (why, motion) = super::unidentifiable_reason(d, *e);
-        let spread = if e.is_rate_effect() && d.rate_spread >= super::RATE_SPREAD_MIN {
+        let spread = if e.is_rate_effect() && d.one_speed_each_way_only() {
             format!(
                 " (spread of |δ̇| at a depth {:.2} of its RMS, below {})",
                 d.speed_spread,
