@@ -557,8 +557,9 @@ pub struct FileDiagnosis {
 /// from the noise and range, unless overridden).
 ///
 /// # Errors
-/// The reader's error (file, line, field), a log without contact or too short, or a
-/// baseline that cannot be fitted.
+/// The reader's error (file, line, field), a log without contact or too short, a
+/// baseline without a composite form ([`crate::diagnose::baseline_effects`]) or one that
+/// cannot be fitted.
 pub fn diagnose_file(
     path: &Path,
     format: &str,
@@ -566,6 +567,14 @@ pub fn diagnose_file(
     overrides: &Overrides,
     until_end_of: Option<Phase>,
 ) -> Result<FileDiagnosis> {
+    if crate::diagnose::baseline_effects(options.baseline).is_none() {
+        bail!(
+            "baseline {}: the discrepancy workflow has no composite form of it (one \
+             relaxation mode); start from one of {}",
+            options.baseline.name(),
+            crate::diagnose::BASELINES.map(|k| k.name()).join(", ")
+        );
+    }
     let Prepare {
         record,
         notes,

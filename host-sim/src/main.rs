@@ -8,11 +8,12 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{Parser, Subcommand};
 use estimator_core::ModelKind;
 use host_sim::batch;
 use host_sim::diagnose::spec::ModelSpec;
-use host_sim::diagnose::{report as diagnosis_report, Baseline, Options as DiagnoseOptions};
+use host_sim::diagnose::{report as diagnosis_report, Options as DiagnoseOptions, BASELINES};
 use host_sim::files::{diagnose_file, estimate_file, FileRun, REAL_FILES};
 use host_sim::phases::Phase;
 use host_sim::report::{self, ScenarioOutcome};
@@ -57,8 +58,8 @@ enum Command {
     /// Run the per-sample pipeline over measured files and report the parameters.
     Estimate {
         /// Model to estimate.
-        #[arg(long, value_enum, required_unless_present = "model_spec")]
-        model: Option<ModelArg>,
+        #[arg(long, value_parser = model_kind(&ModelKind::ALL), required_unless_present = "model_spec")]
+        model: Option<ModelKind>,
         /// Estimate the online structure of a diagnosed model (`model.json`, written by
         /// `diagnose`): power law and depth-dependent damping → hunt-crossley, with
         /// relaxation → hammerstein, relaxation alone → zener; an error names the effects
@@ -125,9 +126,11 @@ enum Command {
         /// File format (auto-detected by default).
         #[arg(long, default_value = "auto")]
         format: String,
-        /// Model the workflow starts from.
-        #[arg(long, value_enum, default_value = "kelvin-voigt")]
-        baseline: Baseline,
+        /// Model the workflow starts from: Kelvin-Voigt, or a core model read as effects on
+        /// it (hunt-crossley: power law and depth-dependent damping; zener: relaxation;
+        /// hammerstein: power law and relaxation).
+        #[arg(long, value_parser = model_kind(&BASELINES), default_value = "kelvin-voigt")]
+        baseline: ModelKind,
         /// Output folder for report.md, diagnosis.json and the plots.
         #[arg(long, default_value = "out/diagnose")]
         out: PathBuf,
@@ -165,28 +168,11 @@ enum Command {
     },
 }
 
-/// Models on the command line.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum ModelArg {
-    KelvinVoigt,
-    Zener,
-    HuntCrossley,
-    HuntCrossleySingleStage,
-    Hammerstein,
-    Hammerstein2,
-}
-
-impl From<ModelArg> for ModelKind {
-    fn from(m: ModelArg) -> Self {
-        match m {
-            ModelArg::KelvinVoigt => ModelKind::KelvinVoigt,
-            ModelArg::Zener => ModelKind::Zener,
-            ModelArg::HuntCrossley => ModelKind::HuntCrossley,
-            ModelArg::HuntCrossleySingleStage => ModelKind::HuntCrossleySingleStage,
-            ModelArg::Hammerstein => ModelKind::Hammerstein1,
-            ModelArg::Hammerstein2 => ModelKind::Hammerstein2,
-        }
-    }
+/// `--model` / `--baseline` values: the names ([`ModelKind::name`]) of `kinds`, parsed
+/// into the core's one model enum.
+fn model_kind(kinds: &'static [ModelKind]) -> impl TypedValueParser<Value = ModelKind> {
+    PossibleValuesParser::new(kinds.iter().map(|k| k.name()))
+        .map(|name| ModelKind::from_name(&name).expect("clap accepts only the names of `kinds`"))
 }
 
 fn main() -> ExitCode {
@@ -269,7 +255,7 @@ fn main() -> ExitCode {
             };
             let phases = (!phase.is_empty()).then_some(phase);
             let kind = match (model, model_spec) {
-                (Some(model), _) => Ok(model.into()),
+                (Some(model), _) => Ok(model),
                 (None, Some(spec)) => estimator_of_spec(&spec),
                 (None, None) => Err(anyhow::anyhow!("--model or --model-spec is required")),
             };

@@ -39,6 +39,7 @@ pub mod spec;
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use estimator_core::ModelKind;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -49,49 +50,42 @@ use self::model::{Effect, Effort, Fit};
 pub const SHORTLIST: usize = 3;
 use crate::phases::Phase;
 
-/// The model the workflow starts from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Baseline {
-    /// Linear spring and damper (eq. 1): the default, the model designs are tied to.
-    KelvinVoigt,
-    /// Power-law elasticity and depth-dependent damping (eq. 3).
-    HuntCrossley,
-    /// Kelvin-Voigt with one relaxation mode (a Zener arm, eq. 2).
-    Zener,
-    /// Power-law elasticity with one relaxation mode (QLV / Hammerstein).
-    Hammerstein,
+/// Models the workflow can start from (`--baseline`): the core's models whose law is a set
+/// of catalogue effects on Kelvin-Voigt ([`baseline_effects`]).
+pub const BASELINES: [ModelKind; 4] = [
+    ModelKind::KelvinVoigt,
+    ModelKind::HuntCrossley,
+    ModelKind::Zener,
+    ModelKind::Hammerstein1,
+];
+
+/// Effects a core model contains on top of the Kelvin-Voigt law (eq. 1): Zener (eq. 2)
+/// one relaxation mode; Hunt-Crossley (eq. 3, either estimator) power-law elasticity and
+/// depth-dependent damping; Hammerstein of filter order 1 (eqs. 38-42) power-law
+/// elasticity and one relaxation mode. `None` for filter order 2: the catalogue has one
+/// relaxation mode.
+pub fn baseline_effects(kind: ModelKind) -> Option<BTreeSet<Effect>> {
+    Some(match kind {
+        ModelKind::KelvinVoigt => BTreeSet::new(),
+        ModelKind::HuntCrossley | ModelKind::HuntCrossleySingleStage => {
+            [Effect::PowerLawStiffness, Effect::DepthDependentDamping].into()
+        }
+        ModelKind::Zener => [Effect::Relaxation].into(),
+        ModelKind::Hammerstein1 => [Effect::PowerLawStiffness, Effect::Relaxation].into(),
+        ModelKind::Hammerstein2 => return None,
+    })
 }
 
-impl Baseline {
-    /// Effects the baseline already contains on top of Kelvin-Voigt.
-    pub fn effects(self) -> BTreeSet<Effect> {
-        match self {
-            Baseline::KelvinVoigt => BTreeSet::new(),
-            Baseline::HuntCrossley => {
-                [Effect::PowerLawStiffness, Effect::DepthDependentDamping].into()
-            }
-            Baseline::Zener => [Effect::Relaxation].into(),
-            Baseline::Hammerstein => [Effect::PowerLawStiffness, Effect::Relaxation].into(),
-        }
-    }
-
-    /// Kebab-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Baseline::KelvinVoigt => "kelvin-voigt",
-            Baseline::HuntCrossley => "hunt-crossley",
-            Baseline::Zener => "zener",
-            Baseline::Hammerstein => "hammerstein",
-        }
-    }
+/// Serializes a [`ModelKind`] as its [`ModelKind::name`].
+fn serialize_model_name<S: serde::Serializer>(kind: &ModelKind, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(kind.name())
 }
 
 /// Settings of the workflow.
 #[derive(Debug, Clone, Copy)]
 pub struct Options {
-    /// Starting model.
-    pub baseline: Baseline,
+    /// Starting model, one of [`BASELINES`].
+    pub baseline: ModelKind,
     /// At most this many effects are added.
     pub max_steps: usize,
     /// BIC must fall by more than this.
@@ -105,7 +99,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            baseline: Baseline::KelvinVoigt,
+            baseline: ModelKind::KelvinVoigt,
             max_steps: 4,
             min_bic_drop: 10.0,
             min_cv_improvement: 0.01,
@@ -200,7 +194,8 @@ pub struct Removal {
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
     /// Starting model.
-    pub baseline: Baseline,
+    #[serde(serialize_with = "serialize_model_name")]
+    pub baseline: ModelKind,
     /// Its fit.
     pub baseline_fit: Fit,
     /// Accepted additions in order.
@@ -262,10 +257,11 @@ impl Diagnosis {
     }
 }
 
-/// Runs the workflow on a prepared log. `None` if even the baseline cannot be fitted
-/// (no contact samples).
+/// Runs the workflow on a prepared log. `None` if the baseline has no composite form
+/// ([`baseline_effects`]) or cannot be fitted (no contact samples).
 pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
-    let mut effects = options.baseline.effects();
+    let baseline = baseline_effects(options.baseline)?;
+    let mut effects = baseline.clone();
     let duration_s = data.dt * (data.len() - data.fit_start()) as f64;
     let noise_fraction = noise_sample_fraction(data);
     // Rate effects on a record that passes each depth at one speed are elastic laws in
@@ -440,7 +436,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         let added: Vec<Effect> = effects
             .iter()
             .copied()
-            .filter(|e| !options.baseline.effects().contains(e))
+            .filter(|e| !baseline.contains(e))
             .collect();
         if added.len() < 2 {
             break;
@@ -938,5 +934,31 @@ mod tests {
         assert!((correlation(&a, &a, 0) - 1.0).abs() < 1e-12);
         let b: Vec<f64> = a.iter().map(|x| -2.0 * x).collect();
         assert!((correlation(&a, &b, 0) + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn every_offered_baseline_has_a_composite_form_and_order_two_has_none() {
+        for kind in BASELINES {
+            assert!(baseline_effects(kind).is_some(), "{}", kind.name());
+        }
+        assert_eq!(
+            baseline_effects(ModelKind::HuntCrossleySingleStage),
+            baseline_effects(ModelKind::HuntCrossley)
+        );
+        assert_eq!(baseline_effects(ModelKind::Hammerstein2), None);
+        let options = Options {
+            baseline: ModelKind::Hammerstein2,
+            ..Options::default()
+        };
+        let error = crate::files::diagnose_file(
+            std::path::Path::new("unused.csv"),
+            "auto",
+            &options,
+            &crate::setup::Overrides::default(),
+            None,
+        )
+        .err()
+        .expect("an order-2 Hammerstein baseline is refused");
+        assert!(error.to_string().contains("hammerstein2"), "{error}");
     }
 }
