@@ -8,6 +8,7 @@
 use std::io::Write as _;
 use std::path::Path;
 
+use host_sim::diagnose::model::Param;
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::diagnose_file;
 use host_sim::setup::Overrides;
@@ -45,7 +46,7 @@ fn ramp(dir: &Path, name: &str, n: f64, noise_n: f64, unload: bool, seed: u64) -
 }
 
 fn exponent(d: &Diagnosis) -> f64 {
-    d.final_fit.parameter("n").expect("a power law")
+    d.final_fit.parameter(Param::N).expect("a power law")
 }
 
 #[test]
@@ -74,7 +75,7 @@ fn loading_ramp_names_the_power_law_never_damping() {
                 .any(|e| e.id() == "depth_dependent_damping"),
             "{name}: damping not reported unidentifiable"
         );
-        assert_eq!(d.final_fit.parameter("lambda"), Some(0.0), "{name}");
+        assert_eq!(d.final_fit.parameter(Param::Lambda), Some(0.0), "{name}");
     }
 }
 

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use host_sim::diagnose::model::Param;
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::diagnose_file;
 use host_sim::phases::Phase;
@@ -58,7 +59,7 @@ fn afm_stress_relaxation_names_relaxation_first() {
     assert_eq!(d.steps[0].effect.id(), "relaxation", "{}", d.final_model());
     let f = d.steps[0]
         .after
-        .parameter("relaxed_fraction")
+        .parameter(Param::RelaxedFraction)
         .expect("relaxation parameters");
     assert!((0.3..1.0).contains(&f), "relaxed fraction {f}");
     gap_shrinks("cell-stress-relaxation", &d, 0.25);
@@ -87,7 +88,7 @@ fn steel_loading_names_a_stiffening_law_first() {
         "power law not significant: ΔBIC {}",
         power.delta_bic
     );
-    let n = power.fit.parameter("n").expect("exponent");
+    let n = power.fit.parameter(Param::N).expect("exponent");
     assert!((1.5..=2.2).contains(&n), "n = {n}");
     gap_shrinks("steel loading", &d, 0.2);
 }
@@ -136,8 +137,8 @@ fn silicone_compression_names_only_elastic_effects() {
         );
     }
     for fit in std::iter::once(&d.baseline_fit).chain(d.steps.iter().map(|s| &s.after)) {
-        assert_eq!(fit.parameter("lambda"), Some(0.0), "damping not held");
-        assert_eq!(fit.parameter("tare_n"), Some(0.0), "tare refitted");
+        assert_eq!(fit.parameter(Param::Lambda), Some(0.0), "damping not held");
+        assert_eq!(fit.parameter(Param::TareN), Some(0.0), "tare refitted");
     }
     gap_shrinks("ecoflex", &d, 0.25);
     // The final elastic law is the material's, not a curve bent into shape by moving the
@@ -148,7 +149,7 @@ fn silicone_compression_names_only_elastic_effects() {
         .expect("the Ecoflex file reads");
     let contact = d
         .final_fit
-        .parameter("contact_position_m")
+        .parameter(Param::ContactPositionM)
         .expect("a contact position");
     let span = 1.5e-3;
     let (mut sx, mut sy, mut sxx, mut sxy, mut count) = (0.0, 0.0, 0.0, 0.0, 0.0);

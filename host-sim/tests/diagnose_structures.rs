@@ -31,6 +31,7 @@
 
 use std::collections::BTreeMap;
 
+use host_sim::diagnose::model::Param;
 use host_sim::diagnose::Options;
 use host_sim::files::diagnose_file;
 use host_sim::recordings::{generate, MaterialKind, Structure};
@@ -138,7 +139,7 @@ fn diagnose_log(
                 first: d.steps.first().map(|s| s.effect.id()),
                 n_error: d
                     .final_fit
-                    .parameter("n")
+                    .parameter(Param::N)
                     .filter(|_| d.effects_added().contains(&"power_law_stiffness"))
                     .map(|n| (n - r.truth.n) / r.truth.n),
                 nrmse: d.final_fit.nrmse_percent,

@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use self::data::Prepared;
-use self::model::{Effect, Effort, Fit};
+use self::model::{Effect, Effort, Fit, Param};
 
 /// Candidates fitted fully in each round (the rest only screened).
 pub const SHORTLIST: usize = 3;
@@ -767,10 +767,10 @@ fn score(
 /// than the record only fixes the product c·ν, so c alone may exceed 1); friction
 /// opposes motion (c ≥ 0).
 pub fn physical(fit: &Fit, duration_s: f64) -> bool {
-    let rate = fit.parameter("rate_per_s").unwrap_or(0.0);
-    fit.parameter("relaxed_fraction")
+    let rate = fit.parameter(Param::RatePerS).unwrap_or(0.0);
+    fit.parameter(Param::RelaxedFraction)
         .is_none_or(|c| c >= 0.0 && c * -(-rate * duration_s).exp_m1() < 1.0)
-        && fit.parameter("coulomb_n").is_none_or(|c| c >= 0.0)
+        && fit.parameter(Param::CoulombN).is_none_or(|c| c >= 0.0)
 }
 
 /// Pearson correlation of `a` and `b` shifted by `lag` (b leads for positive lags).

@@ -140,6 +140,22 @@ impl Effect {
         )
     }
 
+    /// The parameters the effect adds to a model (those a report shows for it).
+    pub fn own_parameters(self) -> &'static [Param] {
+        match self {
+            Effect::PowerLawStiffness => &[Param::N],
+            Effect::ExponentialStiffness => &[Param::B],
+            Effect::DepthDependentDamping => &[Param::Q],
+            Effect::Relaxation => &[Param::RelaxedFraction, Param::RatePerS],
+            Effect::ForceOffset => &[Param::ForceOffsetN],
+            Effect::ContactPointOffset => &[Param::ContactShiftM],
+            Effect::Inertia => &[Param::MassKg],
+            Effect::TimeDelay => &[Param::DelayS],
+            Effect::CoulombFriction => &[Param::CoulombN],
+            Effect::PlasticSet => &[Param::PlasticFraction],
+        }
+    }
+
     /// The effect's nonlinear parameter, if any (found by search, not least squares).
     pub fn knob(self) -> Option<Knob> {
         match self {
@@ -205,6 +221,146 @@ impl Knob {
             Knob::PlasticFraction => (0.0, 0.4, false),
             Knob::SlipRate => (0.005 * scale.rate_m_per_s, 0.5 * scale.rate_m_per_s, true),
         }
+    }
+}
+
+/// A reported parameter of a composite model (SI units), named as in the paper where it
+/// has a symbol there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Param {
+    /// κ \[N/m\], linear stiffness (eq. 1), or the linear spring under an exponential law.
+    Kappa,
+    /// k \[N/m^n\], power-law coefficient (eq. 3).
+    K,
+    /// n, power-law exponent (eq. 3).
+    N,
+    /// m \[N/m\], initial slope of the exponential law (m/b)(e^{bδ} − 1) (QLV, eqs. 11/13).
+    M,
+    /// b \[1/m\], stiffening rate of the exponential law.
+    B,
+    /// λ \[N·s/m\] (eq. 1), or \[N·s/m^(q+1)\] with depth-dependent damping (eq. 3).
+    Lambda,
+    /// q, depth exponent of the damping λ·δ^q·δ̇ (eq. 3 has q = n).
+    Q,
+    /// c, fraction of the elastic force that relaxes (QLV eq. 15, a Zener arm).
+    RelaxedFraction,
+    /// ν \[1/s\], rate of that relaxation mode.
+    RatePerS,
+    /// Probe/tissue mass \[kg\].
+    MassKg,
+    /// Coulomb friction force magnitude F_c \[N\].
+    CoulombN,
+    /// Load-cell bias that appears after the first contact \[N\].
+    ForceOffsetN,
+    /// Refinement of the tare \[N\] (part of every model).
+    TareN,
+    /// Contact position of the later contacts minus the first impact's \[m\].
+    ContactShiftM,
+    /// Force-channel delay \[s\].
+    DelayS,
+    /// Plastic-set fraction of the deepest indentation.
+    PlasticFraction,
+    /// Coulomb slip rate v_s \[m/s\] (F_c·tanh(δ̇/v_s)).
+    SlipRateMPerS,
+    /// Position of the first impact's contact point on the penetration axis \[m\].
+    ContactPositionM,
+}
+
+impl Param {
+    /// The identifier used in reports, JSON and summaries.
+    pub fn id(self) -> &'static str {
+        match self {
+            Param::Kappa => "kappa",
+            Param::K => "k",
+            Param::N => "n",
+            Param::M => "m",
+            Param::B => "b",
+            Param::Lambda => "lambda",
+            Param::Q => "q",
+            Param::RelaxedFraction => "relaxed_fraction",
+            Param::RatePerS => "rate_per_s",
+            Param::MassKg => "mass_kg",
+            Param::CoulombN => "coulomb_n",
+            Param::ForceOffsetN => "force_offset_n",
+            Param::TareN => "tare_n",
+            Param::ContactShiftM => "contact_shift_m",
+            Param::DelayS => "delay_s",
+            Param::PlasticFraction => "plastic_fraction",
+            Param::SlipRateMPerS => "slip_rate_m_per_s",
+            Param::ContactPositionM => "contact_position_m",
+        }
+    }
+
+    /// The parameter a knob's value is reported as (the contact knob is reported as the
+    /// absolute [`Param::ContactPositionM`]).
+    pub fn of_knob(knob: Knob) -> Param {
+        match knob {
+            Knob::ContactPosition => Param::ContactPositionM,
+            Knob::Exponent => Param::N,
+            Knob::StiffeningRate => Param::B,
+            Knob::DampingExponent => Param::Q,
+            Knob::RelaxationRate => Param::RatePerS,
+            Knob::Delay => Param::DelayS,
+            Knob::ContactShift => Param::ContactShiftM,
+            Knob::PlasticFraction => Param::PlasticFraction,
+            Knob::SlipRate => Param::SlipRateMPerS,
+        }
+    }
+}
+
+impl Serialize for Param {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.id())
+    }
+}
+
+/// A fitted parameter: SI value and standard error (NaN where not estimated, 0 for a
+/// coefficient held at its physical bound).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Estimate {
+    /// Which parameter.
+    pub param: Param,
+    /// Value, SI.
+    pub value: f64,
+    /// Standard error, SI.
+    pub standard_error: f64,
+}
+
+/// A regression column of the composite model: its coefficient is solved by least
+/// squares for given [`Nonlinear`] values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// The elastic law (κδ, or L·(δ/L)ⁿ, or (e^{bδ} − 1)/b), coefficient κ, k·L^(n−1) or m.
+    Elastic,
+    /// The damping δ̇ (or L^q·(δ/L)^q·δ̇), coefficient λ or λ·L^q.
+    Damping,
+    /// The linear spring κδ under an exponential law.
+    LinearSpring,
+    /// The relaxing part of the elastic column (a first-order low-pass of it, negated).
+    Relaxing,
+    /// δ̈, coefficient the mass.
+    Inertia,
+    /// tanh(δ̇/v_s), coefficient F_c.
+    Coulomb,
+    /// 1, coefficient the tare refinement.
+    Tare,
+    /// 1 after the first contact, coefficient the later load-cell bias.
+    ForceOffset,
+}
+
+impl Column {
+    /// Whether the coefficient is non-negative physically: the elastic and the damping
+    /// coefficient of a passive material (κ, k, m ≥ 0 and λ ≥ 0 at every step, the
+    /// baseline included), a mass and a friction force's magnitude.
+    fn non_negative(self) -> bool {
+        matches!(
+            self,
+            Column::Elastic
+                | Column::Damping
+                | Column::LinearSpring
+                | Column::Inertia
+                | Column::Coulomb
+        )
     }
 }
 
@@ -324,7 +480,7 @@ impl Nonlinear {
 
 /// Columns of the regression, named.
 struct Design {
-    names: Vec<&'static str>,
+    names: Vec<Column>,
     /// Column-major values over the fit window.
     columns: Vec<Vec<f64>>,
     /// Material force columns (gated by contact), as opposed to the offset.
@@ -614,7 +770,7 @@ fn design(
             coulomb.push(c);
         }
     }
-    let mut names = vec!["elastic", "damping"];
+    let mut names = vec![Column::Elastic, Column::Damping];
     let mut columns = vec![elastic, damping];
     let mut material = vec![true, true];
     if has(Effect::ExponentialStiffness) && nl.linear_spring {
@@ -624,7 +780,7 @@ fn design(
         // 2.3) is fitted by moving the contact point. Where the exponential alone fits,
         // the extra column trades against the contact point and the search can end in a
         // worse optimum; hence both variants are fitted (`Nonlinear::linear_spring`).
-        names.push("linear");
+        names.push(Column::LinearSpring);
         columns.push(linear);
         material.push(true);
     }
@@ -643,30 +799,30 @@ fn design(
                 }
             })
             .collect();
-        names.push("relaxing");
+        names.push(Column::Relaxing);
         columns.push(lp);
         material.push(true);
     }
     if has(Effect::Inertia) {
-        names.push("mass_kg");
+        names.push(Column::Inertia);
         columns.push(inertia);
         material.push(true);
     }
     if has(Effect::CoulombFriction) {
-        names.push("coulomb_n");
+        names.push(Column::Coulomb);
         columns.push(coulomb);
         material.push(true);
     }
     // The tare refined (part of every model): the detector's tare averages a few
     // hundred free-space samples, an error the fit over thousands would otherwise
     // blame on an effect.
-    names.push("tare_n");
+    names.push(Column::Tare);
     columns.push(vec![if data.hold_tare { 0.0 } else { 1.0 }; n]);
     material.push(false);
     if has(Effect::ForceOffset) {
         // A bias the tare before the first impact missed appeared after it: a zero
         // shift of the load cell after its first load.
-        names.push("force_offset_n");
+        names.push(Column::ForceOffset);
         columns.push(
             (start..data.len())
                 .map(|b| {
@@ -698,19 +854,9 @@ struct Solve {
 /// Most regression columns of any model.
 const MAX_COLUMNS: usize = 8;
 
-/// Columns whose coefficient is non-negative physically: the elastic and the damping
-/// coefficient of a passive material (κ, k, m ≥ 0 and λ ≥ 0 at every step, the baseline
-/// included), a mass and a friction force's magnitude.
-fn non_negative(name: &str) -> bool {
-    matches!(
-        name,
-        "elastic" | "damping" | "linear" | "mass_kg" | "coulomb_n"
-    )
-}
-
 /// Least squares on columns scaled to unit RMS (normal equations, Cholesky with a tiny
 /// ridge for rank-deficient columns such as an all-zero effect), with the
-/// [`non_negative`] coefficients held at 0 where the unconstrained solution makes them
+/// [`Column::non_negative`] coefficients held at 0 where the unconstrained solution makes them
 /// negative (an active set: the most negative is held and the rest re-solved, until none
 /// is negative; a held coefficient has standard error 0). Rows where `train` is false are
 /// left out; the material columns are weighted by `touch` (0 where the probe has left the
@@ -794,7 +940,7 @@ fn least_squares(
         let chol = a.clone().cholesky()?;
         let x = chol.solve(&b);
         let negative = (0..p)
-            .filter(|&j| free(j) && non_negative(design.names[j]) && x[j] < 0.0)
+            .filter(|&j| free(j) && design.names[j].non_negative() && x[j] < 0.0)
             .min_by(|&i, &j| x[i].total_cmp(&x[j]));
         if let Some(j) = negative {
             held[j] = true;
@@ -826,8 +972,8 @@ pub struct Fit {
     /// Nonlinear parameters.
     #[serde(skip)]
     pub nonlinear: Nonlinear,
-    /// Parameters (name, value, standard error), SI.
-    pub parameters: Vec<(String, f64, f64)>,
+    /// Parameters, SI, in the report's order.
+    pub parameters: Vec<Estimate>,
     /// Residual sum of squares \[N²\] over the fit window.
     pub rss: f64,
     /// Samples in the fit window.
@@ -863,9 +1009,12 @@ impl Fit {
             .collect()
     }
 
-    /// A parameter by name.
-    pub fn parameter(&self, name: &str) -> Option<f64> {
-        self.parameters.iter().find(|p| p.0 == name).map(|p| p.1)
+    /// A parameter's value, if the model has it.
+    pub fn parameter(&self, param: Param) -> Option<f64> {
+        self.parameters
+            .iter()
+            .find(|p| p.param == param)
+            .map(|p| p.value)
     }
 
     /// The model's instantaneous elastic force F_e(δ) \[N\] at depth `depth_m` \[m\]
@@ -873,13 +1022,14 @@ impl Fit {
     /// 11/13), by the core's laws; 0 for δ ≤ 0. With relaxation this is the
     /// instantaneous law; the relaxed one is (1 − c) times it.
     pub fn elastic_force_n(&self, depth_m: f64) -> f64 {
-        let p = |name: &str| self.parameter(name).unwrap_or(0.0);
+        let p = |param: Param| self.parameter(param).unwrap_or(0.0);
         if self.effects.contains(&Effect::PowerLawStiffness) {
-            p("k") * laws::power_law(depth_m, p("n"))
+            p(Param::K) * laws::power_law(depth_m, p(Param::N))
         } else if self.effects.contains(&Effect::ExponentialStiffness) {
-            p("kappa") * depth_m.max(0.0) + p("m") * laws::exponential_law(depth_m, p("b"))
+            p(Param::Kappa) * depth_m.max(0.0)
+                + p(Param::M) * laws::exponential_law(depth_m, p(Param::B))
         } else {
-            p("kappa") * depth_m.max(0.0)
+            p(Param::Kappa) * depth_m.max(0.0)
         }
     }
 }
@@ -944,8 +1094,8 @@ fn evaluate(
 
 /// The force \[N\] of a model with given coefficients over the record from
 /// [`Prepared::fit_start`] on (the same samples as a [`Fit`]'s prediction): the design
-/// [`fit`] regresses on, each column times `coefficient(name)` (the regression's own
-/// column names and scaling: see [`crate::diagnose::spec`] for the SI conversion), with
+/// [`fit`] regresses on, each column times `coefficient(column)` (the regression's own
+/// columns and scaling: see [`crate::diagnose::spec`] for the SI conversion), with
 /// the unilateral clipping of [`fit`]'s evaluation (material force only where the
 /// material terms push). The record's damping and tare holds do not apply: the
 /// coefficients are given.
@@ -953,7 +1103,7 @@ pub fn predict(
     data: &Prepared,
     effects: &BTreeSet<Effect>,
     nl: &Nonlinear,
-    coefficient: impl Fn(&str) -> f64,
+    coefficient: impl Fn(Column) -> f64,
 ) -> Vec<f64> {
     let start = data.fit_start();
     let scale = Scales::of(data);
@@ -962,7 +1112,7 @@ pub fn predict(
     free.hold_tare = false;
     let full = design(&free, start, effects, nl, &scale);
     let n = data.len() - start;
-    let beta: Vec<f64> = full.names.iter().map(|name| coefficient(name)).collect();
+    let beta: Vec<f64> = full.names.iter().map(|c| coefficient(*c)).collect();
     let m: Vec<f64> = (0..n).map(|i| full.sum_at(&beta, i, true)).collect();
     let block = data.block.max(1);
     (0..n)
@@ -1447,7 +1597,7 @@ fn cross_validate(design: &Design, y: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Physical names, SI values and standard errors of a fit's parameters.
+/// SI values and standard errors of a fit's parameters.
 #[allow(clippy::too_many_arguments)]
 fn name_parameters(
     effects: &BTreeSet<Effect>,
@@ -1460,60 +1610,72 @@ fn name_parameters(
     start: usize,
     scale: &Scales,
     uncertainties: bool,
-) -> Vec<(String, f64, f64)> {
+) -> Vec<Estimate> {
     let has = |e: Effect| effects.contains(&e);
     let l = scale.depth_m;
-    let col = |name: &str| design.names.iter().position(|n| *n == name);
+    let col = |c: Column| design.names.iter().position(|n| *n == c);
     let knob_se =
         |knob: Knob| nonlinear_se(uncertainties, data, start, effects, nl, knob, sigma2, scale);
     let mut out = Vec::new();
+    let mut push = |param: Param, value: f64, standard_error: f64| {
+        out.push(Estimate {
+            param,
+            value,
+            standard_error,
+        });
+    };
     let (e, se_e) = (solve.beta[0], se[0]);
     // Elastic columns were built as L·(δ/L)^n: coefficient c multiplies it, so
     // F = c·L^(1−n)·δⁿ, i.e. k = c·L^(1−n).
     if has(Effect::PowerLawStiffness) {
         let f = l.powf(1.0 - nl.n);
-        out.push(("k".into(), e * f, se_e * f));
-        out.push(("n".into(), nl.n, knob_se(Knob::Exponent)));
+        push(Param::K, e * f, se_e * f);
+        push(Param::N, nl.n, knob_se(Knob::Exponent));
     } else if has(Effect::ExponentialStiffness) {
-        if let Some(j) = col("linear") {
-            out.push(("kappa".into(), solve.beta[j], se[j]));
+        if let Some(j) = col(Column::LinearSpring) {
+            push(Param::Kappa, solve.beta[j], se[j]);
         }
-        out.push(("m".into(), e, se_e));
-        out.push(("b".into(), nl.b, knob_se(Knob::StiffeningRate)));
+        push(Param::M, e, se_e);
+        push(Param::B, nl.b, knob_se(Knob::StiffeningRate));
     } else {
-        out.push(("kappa".into(), e, se_e));
+        push(Param::Kappa, e, se_e);
     }
     let (d, se_d) = (solve.beta[1], se[1]);
     if has(Effect::DepthDependentDamping) {
         let f = l.powf(-nl.q);
-        out.push(("lambda".into(), d * f, se_d * f));
-        out.push(("q".into(), nl.q, knob_se(Knob::DampingExponent)));
+        push(Param::Lambda, d * f, se_d * f);
+        push(Param::Q, nl.q, knob_se(Knob::DampingExponent));
     } else {
-        out.push(("lambda".into(), d, se_d));
+        push(Param::Lambda, d, se_d);
     }
-    if let Some(j) = col("relaxing") {
+    if let Some(j) = col(Column::Relaxing) {
         let c = solve.beta[j] / e;
         let se_c = c.abs() * ((se[j] / solve.beta[j]).powi(2) + (se_e / e).powi(2)).sqrt();
-        out.push(("relaxed_fraction".into(), c, se_c));
-        out.push(("rate_per_s".into(), nl.nu, knob_se(Knob::RelaxationRate)));
+        push(Param::RelaxedFraction, c, se_c);
+        push(Param::RatePerS, nl.nu, knob_se(Knob::RelaxationRate));
     }
-    for name in ["mass_kg", "coulomb_n", "force_offset_n", "tare_n"] {
-        if let Some(j) = col(name) {
-            out.push((name.into(), solve.beta[j], se[j]));
+    for (column, param) in [
+        (Column::Inertia, Param::MassKg),
+        (Column::Coulomb, Param::CoulombN),
+        (Column::ForceOffset, Param::ForceOffsetN),
+        (Column::Tare, Param::TareN),
+    ] {
+        if let Some(j) = col(column) {
+            push(param, solve.beta[j], se[j]);
         }
     }
-    for (knob, name) in [
-        (Knob::ContactShift, "contact_shift_m"),
-        (Knob::Delay, "delay_s"),
-        (Knob::PlasticFraction, "plastic_fraction"),
-        (Knob::SlipRate, "slip_rate_m_per_s"),
+    for knob in [
+        Knob::ContactShift,
+        Knob::Delay,
+        Knob::PlasticFraction,
+        Knob::SlipRate,
     ] {
         if knobs_of(effects).contains(&knob) {
-            out.push((name.into(), nl.get(knob), knob_se(knob)));
+            push(Param::of_knob(knob), nl.get(knob), knob_se(knob));
         }
     }
-    out.push((
-        "contact_position_m".into(),
+    push(
+        Param::ContactPositionM,
         // The first impact's contact position (the later contacts' is this + shift).
         data.contact_position_m + nl.contact_m
             - if has(Effect::ContactPointOffset) {
@@ -1522,7 +1684,7 @@ fn name_parameters(
                 0.0
             },
         knob_se(Knob::ContactPosition),
-    ));
+    );
     out
 }
 

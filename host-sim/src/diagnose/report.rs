@@ -18,12 +18,12 @@ use crate::plots::{self, Chart, Series, PALETTE};
 fn parameters_json(fit: &Fit) -> (Value, Value) {
     let mut values = Map::new();
     let mut errors = Map::new();
-    for (name, value, se) in &fit.parameters {
-        values.insert(name.clone(), json!(value));
+    for p in &fit.parameters {
+        values.insert(p.param.id().into(), json!(p.value));
         errors.insert(
-            name.clone(),
-            if se.is_finite() {
-                json!(se)
+            p.param.id().into(),
+            if p.standard_error.is_finite() {
+                json!(p.standard_error)
             } else {
                 Value::Null
             },
@@ -118,8 +118,9 @@ pub fn elastic_force_table(d: &Diagnosis, data: &Prepared) -> Value {
 fn parameters_text(fit: &Fit) -> String {
     fit.parameters
         .iter()
-        .map(|(n, v, se)| {
-            if se.is_finite() && *se > 0.0 {
+        .map(|p| {
+            let (n, v, se) = (p.param.id(), p.value, p.standard_error);
+            if se.is_finite() && se > 0.0 {
                 format!("{n} = {v:.4e} ± {se:.2e}")
             } else {
                 format!("{n} = {v:.4e}")
@@ -131,21 +132,10 @@ fn parameters_text(fit: &Fit) -> String {
 
 /// The candidate's own parameters (those its effect adds), as `name = value`.
 fn shape_text(c: &Candidate) -> String {
-    let own: &[&str] = match c.effect.id() {
-        "power_law_stiffness" => &["n"],
-        "exponential_stiffness" => &["b"],
-        "depth_dependent_damping" => &["q"],
-        "relaxation" => &["relaxed_fraction", "rate_per_s"],
-        "force_offset" => &["force_offset_n"],
-        "contact_point_offset" => &["contact_shift_m"],
-        "inertia" => &["mass_kg"],
-        "time_delay" => &["delay_s"],
-        "coulomb_friction" => &["coulomb_n"],
-        "plastic_set" => &["plastic_fraction"],
-        _ => &[],
-    };
-    own.iter()
-        .filter_map(|n| c.fit.parameter(n).map(|v| format!("{n} = {v:.3e}")))
+    c.effect
+        .own_parameters()
+        .iter()
+        .filter_map(|p| c.fit.parameter(*p).map(|v| format!("{} = {v:.3e}", p.id())))
         .collect::<Vec<_>>()
         .join(", ")
 }

@@ -19,7 +19,7 @@ use estimator_core::ModelKind;
 use serde::{Deserialize, Serialize};
 
 use super::data::Prepared;
-use super::model::{self, Effect, Fit, Nonlinear, Scales};
+use super::model::{self, Column, Effect, Fit, Nonlinear, Param, Scales};
 
 /// Identifies the file format; bumped when a field changes meaning.
 pub const SCHEMA: &str = "contact-model-spec/1";
@@ -112,9 +112,9 @@ pub struct ModelSpec {
 }
 
 /// A parameter of a fit, or an error naming it.
-fn param(fit: &Fit, name: &str) -> Result<f64> {
-    fit.parameter(name)
-        .with_context(|| format!("the fit has no parameter {name}"))
+fn param(fit: &Fit, param: Param) -> Result<f64> {
+    fit.parameter(param)
+        .with_context(|| format!("the fit has no parameter {}", param.id()))
 }
 
 impl ModelSpec {
@@ -126,32 +126,32 @@ impl ModelSpec {
         let has = |e: Effect| fit.effects.contains(&e);
         let elastic = if has(Effect::PowerLawStiffness) {
             ElasticLaw::PowerLaw {
-                k: param(fit, "k")?,
-                n: param(fit, "n")?,
+                k: param(fit, Param::K)?,
+                n: param(fit, Param::N)?,
             }
         } else if has(Effect::ExponentialStiffness) {
             ElasticLaw::Exponential {
-                kappa: fit.parameter("kappa").unwrap_or(0.0),
-                m: param(fit, "m")?,
-                b: param(fit, "b")?,
+                kappa: fit.parameter(Param::Kappa).unwrap_or(0.0),
+                m: param(fit, Param::M)?,
+                b: param(fit, Param::B)?,
             }
         } else {
             ElasticLaw::Linear {
-                kappa: param(fit, "kappa")?,
+                kappa: param(fit, Param::Kappa)?,
             }
         };
         let relaxation = if has(Effect::Relaxation) {
             Some(Relaxation {
-                relaxed_fraction: param(fit, "relaxed_fraction")?,
-                rate_per_s: param(fit, "rate_per_s")?,
+                relaxed_fraction: param(fit, Param::RelaxedFraction)?,
+                rate_per_s: param(fit, Param::RatePerS)?,
             })
         } else {
             None
         };
         let coulomb = if has(Effect::CoulombFriction) {
             Some(Coulomb {
-                force_n: param(fit, "coulomb_n")?,
-                slip_rate_m_per_s: param(fit, "slip_rate_m_per_s")?,
+                force_n: param(fit, Param::CoulombN)?,
+                slip_rate_m_per_s: param(fit, Param::SlipRateMPerS)?,
             })
         } else {
             None
@@ -161,18 +161,18 @@ impl ModelSpec {
             source: source.into(),
             effects: fit.effects.clone(),
             elastic,
-            damping_lambda: param(fit, "lambda")?,
-            damping_exponent: fit.parameter("q").unwrap_or(0.0),
+            damping_lambda: param(fit, Param::Lambda)?,
+            damping_exponent: fit.parameter(Param::Q).unwrap_or(0.0),
             relaxation,
-            mass_kg: fit.parameter("mass_kg"),
+            mass_kg: fit.parameter(Param::MassKg),
             coulomb,
-            delay_s: fit.parameter("delay_s"),
-            plastic_fraction: fit.parameter("plastic_fraction"),
+            delay_s: fit.parameter(Param::DelayS),
+            plastic_fraction: fit.parameter(Param::PlasticFraction),
             position_sign: data.position_sign,
-            contact_position_m: param(fit, "contact_position_m")?,
-            contact_shift_m: fit.parameter("contact_shift_m"),
-            force_offset_n: data.force_offset_n + fit.parameter("tare_n").unwrap_or(0.0),
-            later_force_offset_n: fit.parameter("force_offset_n"),
+            contact_position_m: param(fit, Param::ContactPositionM)?,
+            contact_shift_m: fit.parameter(Param::ContactShiftM),
+            force_offset_n: data.force_offset_n + fit.parameter(Param::TareN).unwrap_or(0.0),
+            later_force_offset_n: fit.parameter(Param::ForceOffsetN),
             nrmse_percent: fit.nrmse_percent,
         })
     }
@@ -351,21 +351,20 @@ impl ModelSpec {
         }
         nl.delay_s = self.delay_s.unwrap_or(0.0);
         nl.plastic = self.plastic_fraction.unwrap_or(0.0);
-        let coefficient = |column: &str| match column {
-            "elastic" => elastic,
-            "damping" => damping,
-            "linear" => match self.elastic {
+        let coefficient = |column: Column| match column {
+            Column::Elastic => elastic,
+            Column::Damping => damping,
+            Column::LinearSpring => match self.elastic {
                 ElasticLaw::Exponential { kappa, .. } => kappa,
                 _ => 0.0,
             },
-            "relaxing" => self
+            Column::Relaxing => self
                 .relaxation
                 .map_or(0.0, |r| r.relaxed_fraction * elastic),
-            "mass_kg" => self.mass_kg.unwrap_or(0.0),
-            "coulomb_n" => self.coulomb.map_or(0.0, |c| c.force_n),
-            "tare_n" => self.force_offset_n - data.force_offset_n,
-            "force_offset_n" => self.later_force_offset_n.unwrap_or(0.0),
-            _ => 0.0,
+            Column::Inertia => self.mass_kg.unwrap_or(0.0),
+            Column::Coulomb => self.coulomb.map_or(0.0, |c| c.force_n),
+            Column::Tare => self.force_offset_n - data.force_offset_n,
+            Column::ForceOffset => self.later_force_offset_n.unwrap_or(0.0),
         };
         model::predict(data, &effects, &nl, coefficient)
     }
