@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use estimator_core::conditioning::ImpactConfig;
-use host_sim::diagnose::{self, data, model::Effect, Options};
+use host_sim::diagnose::{self, catalogue::Effect, data, Options};
 use host_sim::generator;
 
 fn main() {

@@ -8,7 +8,7 @@
 use estimator_core::models::{ContactModel, ElasticResponse};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 
-use crate::diagnose::model::Effect;
+use crate::diagnose::catalogue::Effect;
 use crate::plant::{MaterialChange, Plant, PlantConfig, Trajectory};
 use crate::report::SimulatedLog;
 

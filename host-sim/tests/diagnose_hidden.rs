@@ -22,7 +22,7 @@
 use std::ops::Range;
 
 use estimator_core::conditioning::ImpactConfig;
-use host_sim::diagnose::model::Effect;
+use host_sim::diagnose::catalogue::Effect;
 use host_sim::diagnose::{data, diagnose, Options};
 use host_sim::generator;
 

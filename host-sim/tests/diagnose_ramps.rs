@@ -8,7 +8,7 @@
 use std::io::Write as _;
 use std::path::Path;
 
-use host_sim::diagnose::model::Param;
+use host_sim::diagnose::catalogue::Param;
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::diagnose_file;
 use host_sim::setup::Overrides;

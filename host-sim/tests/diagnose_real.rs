@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use host_sim::diagnose::model::Param;
+use host_sim::diagnose::catalogue::Param;
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::diagnose_file;
 use host_sim::phases::Phase;

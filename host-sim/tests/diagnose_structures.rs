@@ -31,7 +31,7 @@
 
 use std::collections::BTreeMap;
 
-use host_sim::diagnose::model::Param;
+use host_sim::diagnose::catalogue::Param;
 use host_sim::diagnose::Options;
 use host_sim::files::diagnose_file;
 use host_sim::recordings::{generate, MaterialKind, Structure};

@@ -3,7 +3,7 @@
 //! candidates, add it, and repeat while an addition is significant.
 //!
 //! Each step fits every candidate effect added to the current model (variable
-//! projection, [`model::fit`]) and ranks them by blocked 5-fold cross-validation RMSE.
+//! projection, [`solver::fit`]) and ranks them by blocked 5-fold cross-validation RMSE.
 //! Every fit is physical (κ, k, m ≥ 0 and λ ≥ 0: a coefficient the data would make
 //! negative is held at 0). The best is accepted only if all of these hold:
 //! - its parameters are physical (a relaxed fraction in [0, 1), friction c ≥ 0);
@@ -32,23 +32,35 @@
 //! power law whose n absorbed a missing mass is n ≈ 1 once the mass is in); the least
 //! needed one that does not is removed ([`Removal`]), and the check repeats.
 
+pub mod catalogue;
 pub mod data;
-pub mod model;
+pub mod identifiability;
+pub mod localisation;
+pub mod regressors;
 pub mod report;
+pub mod scoring;
+pub mod solver;
 pub mod spec;
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use estimator_core::ModelKind;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use self::catalogue::{knobs_of, Effect, Nonlinear};
 use self::data::Prepared;
-use self::model::{Effect, Effort, Fit, Param};
+pub use self::identifiability::{
+    rate_spread_at_depth, separating_motion, speed_spread_at_depth, unidentifiable_reason,
+    RATE_SPREAD_MIN,
+};
+pub use self::localisation::{localise, Localisation, PHASE_ORDER};
+pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
+use self::scoring::{rss_floor, samples_counted, score};
+use self::solver::{fit, Effort, Fit};
 
 /// Candidates fitted fully in each round (the rest only screened).
 pub const SHORTLIST: usize = 3;
-use crate::phases::Phase;
 
 /// Models the workflow can start from (`--baseline`): the core's models whose law is a set
 /// of catalogue effects on Kelvin-Voigt ([`baseline_effects`]).
@@ -127,22 +139,6 @@ pub struct Candidate {
     pub significant: bool,
     /// Whether its parameters describe a passive material ([`physical`]).
     pub physical: bool,
-}
-
-/// Where the residual of a model sits.
-#[derive(Debug, Clone, Serialize)]
-pub struct Localisation {
-    /// RMS residual \[N\] per phase (and the number of samples).
-    pub phase_rms_n: BTreeMap<String, (f64, usize)>,
-    /// The worst 0.5 s windows: (start \[s\], end \[s\], RMS \[N\], dominant phase).
-    pub worst_windows: Vec<(f64, f64, f64, String)>,
-    /// Residual autocorrelation at lags 0..=50 samples.
-    pub autocorrelation: Vec<f64>,
-    /// 99 % confidence band of a correlation of white residuals: 2.576/√N.
-    pub band: f64,
-    /// Largest |cross-correlation| (over lags −25..=25) of the residual with each signal
-    /// (δ, δ̇, δ̈ and each candidate's signature regressor), and the lag.
-    pub cross_correlation: BTreeMap<String, (f64, i32)>,
 }
 
 /// An effect the record cannot tell apart from the one named.
@@ -300,11 +296,11 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     } else {
         data
     };
-    let baseline_fit = model::fit(
+    let baseline_fit = fit(
         data,
         &effects,
-        &model::Nonlinear::default(),
-        &model::knobs_of(&effects),
+        &Nonlinear::default(),
+        &knobs_of(&effects),
         Effort::FULL,
     )?;
     let mut current = baseline_fit.clone();
@@ -331,7 +327,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         };
         let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
         let fit_one =
-            |(e, replaces): (Effect, Option<Effect>), from: &model::Nonlinear, effort: Effort| {
+            |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
                 // On a record with one contact (a compression test), a model with the
                 // exponential law is screened with the law alone and on the linear
                 // spring, at every step; the spring is one more parameter and is kept
@@ -342,12 +338,12 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
                 // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
                 let with = set(e, replaces);
                 let knobs: Vec<_> = e.knob().into_iter().collect();
-                let fit_from = |nl: &model::Nonlinear| model::fit(data, &with, nl, &knobs, effort);
+                let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
                 let fit = if with.contains(&Effect::ExponentialStiffness)
                     && effort == Effort::QUICK
                     && one_contact
                 {
-                    let variant = |linear_spring| model::Nonlinear {
+                    let variant = |linear_spring| Nonlinear {
                         linear_spring,
                         ..*from
                     };
@@ -446,7 +442,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             .filter_map(|e| {
                 let mut without = effects.clone();
                 without.remove(&e);
-                let fit = model::fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
+                let fit = fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
                 let kept = score(
                     e,
                     None,
@@ -520,421 +516,9 @@ fn choose(
     Some((chosen.clone(), others))
 }
 
-/// The residual sum of squares below which two fits are equally exact: n·(10⁻⁴ of the
-/// force range)², a 14-bit load cell's resolution. Without it two noise-free fits
-/// would differ by the search's rounding.
-fn rss_floor(data: &Prepared, fit: &Fit) -> f64 {
-    let y = &data.force_n[fit.start..];
-    let range = y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-        - y.iter().copied().fold(f64::INFINITY, f64::min);
-    y.len() as f64 * (1e-4 * range).powi(2)
-}
-
-/// BIC of `a` minus BIC of `b` on `n_eff` effective samples, residuals floored at
-/// `floor` \[N²\]: N_eff·ln((RSS_a + floor)/(RSS_b + floor)) + (p_a − p_b)·ln N_eff.
-pub fn delta_bic(a: &Fit, b: &Fit, n_eff: f64, floor: f64) -> f64 {
-    n_eff * ((a.rss + floor) / (b.rss + floor)).ln()
-        + (a.free_parameters as f64 - b.free_parameters as f64) * n_eff.ln()
-}
-
-/// How much the penetration rate varies at a given depth, relative to its RMS, over the
-/// contact samples of the fit window: √(mean within-bin variance of δ̇) / RMS δ̇, with
-/// the contact samples sorted by depth into 20 bins of equal count. 0 when each depth is
-/// passed at one speed (a loading ramp at any speed profile), about 1 when it is passed
-/// loading and unloading. Below [`RATE_SPREAD_MIN`], every rate effect (λ·δ^q·δ̇, a
-/// delay, δ̈, sign δ̇) is a function of depth on this record, the same signature as an
-/// elastic law: not identifiable.
-pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
-    spread_at_depth(data, start, |v| v)
-}
-
-/// [`rate_spread_at_depth`] of the speed |δ̇|: about 0 also on a record that passes each
-/// depth at one speed in each direction (a load/unload triangle at one speed), where a
-/// sign law, Coulomb friction F_c·sign δ̇, is the linear damping's λ·δ̇ = ±λv and δ̈
-/// vanishes but at the reversals. Below [`RATE_SPREAD_MIN`], Coulomb friction and
-/// inertia are not identifiable.
-pub fn speed_spread_at_depth(data: &Prepared, start: usize) -> f64 {
-    spread_at_depth(data, start, f64::abs)
-}
-
-/// The within-depth-bin spread of `of(δ̇)` relative to its RMS (see
-/// [`rate_spread_at_depth`]).
-fn spread_at_depth(data: &Prepared, start: usize, of: impl Fn(f64) -> f64) -> f64 {
-    let mut samples: Vec<(f64, f64)> = (start..data.len())
-        .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0)
-        .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
-        .collect();
-    if samples.len() < 40 {
-        return 0.0;
-    }
-    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let rms = (samples.iter().map(|s| s.1 * s.1).sum::<f64>() / samples.len() as f64).sqrt();
-    if rms <= 0.0 {
-        return 0.0;
-    }
-    let bins = 20;
-    let per = samples.len() / bins;
-    let mut within = 0.0;
-    let mut count = 0usize;
-    for b in 0..bins {
-        let chunk = &samples[b * per..if b + 1 == bins {
-            samples.len()
-        } else {
-            (b + 1) * per
-        }];
-        let m = chunk.iter().map(|s| s.1).sum::<f64>() / chunk.len() as f64;
-        within += chunk.iter().map(|s| (s.1 - m) * (s.1 - m)).sum::<f64>();
-        count += chunk.len();
-    }
-    (within / count as f64).sqrt() / rms
-}
-
-/// [`rate_spread_at_depth`] below which rate effects are not identifiable.
-pub const RATE_SPREAD_MIN: f64 = 0.2;
-
-/// The effective samples a fit's BIC counts: its N times the noise's
-/// [`noise_sample_fraction`], or N when the record has no free space to measure the noise
-/// on (its colour is then unknown: counting by the residual's own autocorrelation would count a
-/// missing effect as coloured noise and reject it).
-fn samples_counted(fit: &Fit, noise_fraction: Option<f64>) -> f64 {
-    match noise_fraction {
-        Some(f) => (f * fit.samples as f64).max(2.0),
-        None => fit.samples as f64,
-    }
-}
-
-/// N_eff / N of the sensor noise: 1 / (1 + 2 Σ ρ_k) over the positive autocorrelations
-/// (at most 50 lags) of the force on the record's free-space stretches (each of at least
-/// 20 fitting samples, its own least-squares line removed). `None` when the record has fewer
-/// than 100 such samples or the front end found no free space.
-pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
-    if data.offset_unidentified {
-        // "Free space" behind a contact point the front end could not confirm may still
-        // carry contact force: it measures misfit, not noise.
-        return None;
-    }
-    let mut runs: Vec<Vec<f64>> = Vec::new();
-    let mut run: Vec<f64> = Vec::new();
-    for (c, f) in data.contact.iter().zip(&data.force_n) {
-        if *c {
-            if run.len() >= 20 {
-                runs.push(std::mem::take(&mut run));
-            }
-            run.clear();
-        } else {
-            run.push(*f);
-        }
-    }
-    if run.len() >= 20 {
-        runs.push(run);
-    }
-    // Each stretch detrended (its least-squares line removed): a slow drift of the
-    // free-space force (hydrodynamic drag on an approach, thermal drift) is not noise.
-    for r in &mut runs {
-        let n = r.len() as f64;
-        let tm = (n - 1.0) / 2.0;
-        let m = r.iter().sum::<f64>() / n;
-        let (stt, sty) = r.iter().enumerate().fold((0.0, 0.0), |(a, b), (i, v)| {
-            let t = i as f64 - tm;
-            (a + t * t, b + t * (v - m))
-        });
-        let slope = sty / stt;
-        r.iter_mut()
-            .enumerate()
-            .for_each(|(i, v)| *v -= m + slope * (i as f64 - tm));
-    }
-    if runs.iter().map(Vec::len).sum::<usize>() < 100 {
-        return None;
-    }
-    let var: f64 = runs.iter().flatten().map(|v| v * v).sum();
-    if var <= 0.0 {
-        return Some(1.0);
-    }
-    let mut sum = 0.0;
-    for k in 1..=50 {
-        let c: f64 = runs
-            .iter()
-            .filter(|r| r.len() > k)
-            .map(|r| r.iter().zip(&r[k..]).map(|(a, b)| a * b).sum::<f64>())
-            .sum();
-        let rho = c / var;
-        if rho <= 0.0 {
-            break;
-        }
-        sum += rho;
-    }
-    Some(1.0 / (1.0 + 2.0 * sum))
-}
-
-/// Why the record cannot identify an effect the workflow did not try, and the motion
-/// that would: (reason, motion).
-pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
-    if d.one_speed_each_way_only() && matches!(e, Effect::CoulombFriction | Effect::Inertia) {
-        (
-            "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ vanishes but at the reversals, where a sampled record cannot place the step within a sample",
-            "a second speed (damping scales with it, friction does not) or smooth reversals (a mass needs accelerations)",
-        )
-    } else if e == Effect::PlasticSet {
-        (
-            "the record only loads: a contact point that follows the deepest indentation scales δ by (1 − p), which the elastic law's own parameters absorb",
-            "an unloading (a permanent set shows as a later release)",
-        )
-    } else if e == Effect::Relaxation {
-        (
-            "each depth is passed once, at one speed: the time since contact is a function of depth, so a relaxing memory of the elastic force is one more elastic law (the elastic reading is kept)",
-            separating_motion(Effect::PowerLawStiffness, e),
-        )
-    } else if e == Effect::ContactPointOffset {
-        (
-            "the record has one contact: a shifted contact point for the later contacts has nothing to act on (the contact point itself is refined in every model)",
-            "a lift-off and a second contact",
-        )
-    } else if e.is_rate_effect() {
-        (
-            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0)",
-            separating_motion(Effect::PowerLawStiffness, e),
-        )
-    } else {
-        (
-            "the record never leaves contact: a force offset trades off against the contact point and the elastic law (held at the assumed offset)",
-            "a lift-off out of contact (free-space samples fix the offset)",
-        )
-    }
-}
-
-/// The motion that would separate effects `a` and `b` on a record that cannot.
-pub fn separating_motion(a: Effect, b: Effect) -> &'static str {
-    use Effect::*;
-    let has = |e: Effect| a == e || b == e;
-    let elastic = has(PowerLawStiffness) || has(ExponentialStiffness);
-    if has(Relaxation) {
-        "a hold at constant depth (relaxation decays while the depth stays; rate terms vanish)"
-    } else if has(Inertia) {
-        "a faster tap or oscillation (inertia grows with the acceleration, δ̈)"
-    } else if elastic && (has(DepthDependentDamping) || has(TimeDelay) || has(CoulombFriction)) {
-        "a second indentation speed (a rate effect scales with δ̇, an elastic law does not)"
-    } else if has(TimeDelay) && (has(DepthDependentDamping) || has(CoulombFriction)) {
-        "motion at several frequencies (a delay's force lead grows with frequency, damping's does not)"
-    } else if has(CoulombFriction) {
-        "motion reversals at several speeds (friction's step does not scale with speed)"
-    } else if has(ForceOffset) || has(ContactPointOffset) || has(PlasticSet) {
-        "a lift-off out of contact and back (the offset, the contact point and a set differ there)"
-    } else {
-        "a richer motion: several speeds, a hold and a lift-off"
-    }
-}
-
-#[allow(clippy::too_many_arguments)]
-fn score(
-    effect: Effect,
-    replaces: Option<Effect>,
-    fit: Fit,
-    current: &Fit,
-    options: &Options,
-    duration_s: f64,
-    noise_fraction: Option<f64>,
-) -> Candidate {
-    let n_eff = samples_counted(&fit, noise_fraction);
-    let delta_bic = delta_bic(&fit, current, n_eff, 0.0);
-    let cv_improvement = 1.0 - fit.cv_rmse / current.cv_rmse;
-    let folds_better = fit
-        .cv_rmse_per_fold
-        .iter()
-        .zip(&current.cv_rmse_per_fold)
-        .filter(|(a, b)| a < b)
-        .count();
-    let is_physical = physical(&fit, duration_s);
-    let significant = is_physical
-        && delta_bic < -options.min_bic_drop
-        && folds_better >= options.min_folds_better
-        && cv_improvement >= options.min_cv_improvement;
-    Candidate {
-        effect,
-        replaces,
-        fit,
-        delta_bic,
-        cv_improvement,
-        folds_better,
-        significant,
-        physical: is_physical,
-    }
-}
-
-/// Whether the fitted linear parameters describe a passive material over the
-/// `duration_s` of the fit: a relaxation mode relaxes (relaxed fraction c ≥ 0; a negative
-/// one is a force that grows while the depth is held, mimicking stiffening) and never
-/// by more than the whole force within the record (c·(1 − e^(−ν·T)) < 1: a mode slower
-/// than the record only fixes the product c·ν, so c alone may exceed 1); friction
-/// opposes motion (c ≥ 0).
-pub fn physical(fit: &Fit, duration_s: f64) -> bool {
-    let rate = fit.parameter(Param::RatePerS).unwrap_or(0.0);
-    fit.parameter(Param::RelaxedFraction)
-        .is_none_or(|c| c >= 0.0 && c * -(-rate * duration_s).exp_m1() < 1.0)
-        && fit.parameter(Param::CoulombN).is_none_or(|c| c >= 0.0)
-}
-
-/// Pearson correlation of `a` and `b` shifted by `lag` (b leads for positive lags).
-fn correlation(a: &[f64], b: &[f64], lag: i32) -> f64 {
-    let n = a.len().min(b.len());
-    let (mut sa, mut sb, mut sab, mut saa, mut sbb, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for (i, &x) in a.iter().enumerate().take(n) {
-        let j = i as i64 - i64::from(lag);
-        if j < 0 || j as usize >= n {
-            continue;
-        }
-        let y = b[j as usize];
-        sa += x;
-        sb += y;
-        sab += x * y;
-        saa += x * x;
-        sbb += y * y;
-        m += 1.0;
-    }
-    if m < 3.0 {
-        return 0.0;
-    }
-    let cov = sab / m - sa / m * sb / m;
-    let va = saa / m - (sa / m).powi(2);
-    let vb = sbb / m - (sb / m).powi(2);
-    if va <= 0.0 || vb <= 0.0 {
-        0.0
-    } else {
-        cov / (va * vb).sqrt()
-    }
-}
-
-/// The signature of each candidate: the signal its extra term adds to a linear model
-/// (the derivative of the force with respect to its parameter at the "no effect" value).
-fn signatures(data: &Prepared, start: usize) -> Vec<(String, Vec<f64>)> {
-    let d = &data.depth_m[start..];
-    let v = &data.rate_m_per_s[start..];
-    let a = &data.accel_m_per_s2[start..];
-    let g: Vec<f64> = d.iter().map(|x| if *x > 0.0 { 1.0 } else { 0.0 }).collect();
-    let l = d.iter().copied().fold(0.0f64, f64::max).max(1e-12);
-    let mut deepest = 0.0f64;
-    let mut lp = 0.0;
-    let alpha = -(-data.dt).exp_m1();
-    let mut out: Vec<(String, Vec<f64>)> = vec![
-        ("δ".into(), d.to_vec()),
-        ("dδ/dt".into(), v.to_vec()),
-        ("d²δ/dt²".into(), a.to_vec()),
-    ];
-    let sig = |f: &dyn Fn(usize) -> f64| (0..d.len()).map(f).collect::<Vec<f64>>();
-    out.push((
-        Effect::PowerLawStiffness.id().into(),
-        sig(&|i| g[i] * d[i] * (d[i].max(1e-12) / l).ln()),
-    ));
-    out.push((
-        Effect::ExponentialStiffness.id().into(),
-        sig(&|i| g[i] * d[i] * d[i]),
-    ));
-    out.push((
-        Effect::DepthDependentDamping.id().into(),
-        sig(&|i| g[i] * v[i] * (d[i].max(1e-12) / l).ln()),
-    ));
-    out.push((
-        Effect::Relaxation.id().into(),
-        d.iter()
-            .zip(&g)
-            .map(|(x, gi)| {
-                lp += alpha * (gi * x - lp);
-                lp
-            })
-            .collect(),
-    ));
-    out.push((Effect::ForceOffset.id().into(), vec![1.0; d.len()]));
-    out.push((Effect::ContactPointOffset.id().into(), g.clone()));
-    out.push((Effect::Inertia.id().into(), sig(&|i| g[i] * a[i])));
-    out.push((Effect::TimeDelay.id().into(), sig(&|i| g[i] * v[i])));
-    out.push((
-        Effect::CoulombFriction.id().into(),
-        sig(&|i| g[i] * v[i].signum()),
-    ));
-    out.push((
-        Effect::PlasticSet.id().into(),
-        d.iter()
-            .zip(&g)
-            .map(|(x, gi)| {
-                deepest = deepest.max(*x);
-                gi * deepest
-            })
-            .collect(),
-    ));
-    out
-}
-
-/// Residual localisation of a fit: per phase, worst windows, correlations.
-pub fn localise(data: &Prepared, fit: &Fit) -> Localisation {
-    let r = fit.residual(data);
-    let start = fit.start;
-    let n = r.len();
-    let mut phases: BTreeMap<String, (f64, usize)> = BTreeMap::new();
-    for (i, e) in r.iter().enumerate() {
-        let p = data.phase[start + i];
-        let entry = phases.entry(p.name().to_string()).or_default();
-        entry.0 += e * e;
-        entry.1 += 1;
-    }
-    for v in phases.values_mut() {
-        v.0 = (v.0 / v.1.max(1) as f64).sqrt();
-    }
-    let w = (0.5 / data.dt) as usize;
-    let mut windows: Vec<(f64, f64, f64, String)> = (0..n / w.max(1))
-        .map(|k| {
-            let s = &r[k * w..(k + 1) * w];
-            let rms = (s.iter().map(|e| e * e).sum::<f64>() / s.len() as f64).sqrt();
-            let mut count: BTreeMap<Phase, usize> = BTreeMap::new();
-            for i in k * w..(k + 1) * w {
-                *count.entry(data.phase[start + i]).or_default() += 1;
-            }
-            let phase = count
-                .into_iter()
-                .max_by_key(|(_, c)| *c)
-                .map_or(Phase::Loading, |(p, _)| p);
-            (
-                data.time_s[start + k * w],
-                data.time_s[start + (k + 1) * w - 1],
-                rms,
-                phase.name().to_string(),
-            )
-        })
-        .collect();
-    windows.sort_by(|a, b| b.2.total_cmp(&a.2));
-    windows.truncate(3);
-    let autocorrelation = (0..=50).map(|k| correlation(&r, &r, k)).collect();
-    let cross_correlation = signatures(data, start)
-        .into_iter()
-        .map(|(name, s)| {
-            let best = (-25..=25)
-                .map(|lag| (correlation(&r, &s, lag), lag))
-                .max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
-                .unwrap_or((0.0, 0));
-            (name, best)
-        })
-        .collect();
-    Localisation {
-        phase_rms_n: phases,
-        worst_windows: windows,
-        autocorrelation,
-        band: 2.576 / (n as f64).sqrt(),
-        cross_correlation,
-    }
-}
-
-/// Phases in display order.
-pub const PHASE_ORDER: [Phase; 5] = Phase::ALL;
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn correlation_of_a_signal_with_itself_is_one() {
-        let a: Vec<f64> = (0..100).map(|i| (i as f64 * 0.3).sin()).collect();
-        assert!((correlation(&a, &a, 0) - 1.0).abs() < 1e-12);
-        let b: Vec<f64> = a.iter().map(|x| -2.0 * x).collect();
-        assert!((correlation(&a, &b, 0) + 1.0).abs() < 1e-12);
-    }
 
     #[test]
     fn every_offered_baseline_has_a_composite_form_and_order_two_has_none() {

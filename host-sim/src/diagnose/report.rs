@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use serde_json::{json, Map, Value};
 
 use super::data::Prepared;
-use super::model::Fit;
+use super::solver::Fit;
 use super::{Candidate, Diagnosis, Localisation, Options, PHASE_ORDER};
 use crate::plots::{self, Chart, Series, PALETTE};
 
@@ -264,7 +264,7 @@ pub fn markdown(
         out,
         "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps). At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
         options.min_bic_drop,
-        super::model::FOLDS,
+        super::scoring::FOLDS,
         100.0 * options.min_cv_improvement,
         options.min_folds_better,
         options.max_steps
@@ -315,7 +315,7 @@ pub fn markdown(
             r.kept.delta_bic,
             100.0 * r.kept.cv_improvement,
             r.kept.folds_better,
-            super::model::FOLDS,
+            super::scoring::FOLDS,
             parameters_text(&r.after),
             r.after.nrmse_percent,
             r.after.bic

@@ -3,7 +3,7 @@
 //! `host-sim estimate --model-spec` turns into the core's online estimator for that
 //! structure where one exists.
 //!
-//! The force law is the workflow's composite model ([`super::model`]): the elastic law
+//! The force law is the workflow's composite model ([`super::regressors`]): the elastic law
 //! (linear κδ, eq. 1; power law k·δⁿ, eq. 3; or κδ + m(e^{bδ} − 1)/b, QLV eqs. 11/13),
 //! damping λ·δ^q·δ̇ (q = 0: eq. 1; eq. 3 otherwise), optionally one relaxation mode of
 //! the elastic force (a Zener arm, eq. 2 / QLV eq. 15), mass, Coulomb friction, a force
@@ -18,8 +18,10 @@ use anyhow::{bail, Context, Result};
 use estimator_core::ModelKind;
 use serde::{Deserialize, Serialize};
 
+use super::catalogue::{Effect, Nonlinear, Param, Scales};
 use super::data::Prepared;
-use super::model::{self, Column, Effect, Fit, Nonlinear, Param, Scales};
+use super::regressors::{self, Column};
+use super::solver::Fit;
 
 /// Identifies the file format; bumped when a field changes meaning.
 pub const SCHEMA: &str = "contact-model-spec/1";
@@ -366,7 +368,7 @@ impl ModelSpec {
             Column::Tare => self.force_offset_n - data.force_offset_n,
             Column::ForceOffset => self.later_force_offset_n.unwrap_or(0.0),
         };
-        model::predict(data, &effects, &nl, coefficient)
+        regressors::predict(data, &effects, &nl, coefficient)
     }
 
     /// The core's online estimator for this structure (the `estimate --model` name), or
@@ -424,7 +426,7 @@ impl ModelSpec {
 mod tests {
     use super::*;
     use crate::diagnose::data;
-    use crate::diagnose::model::{fit, Effort};
+    use crate::diagnose::solver::{fit, Effort};
     use crate::generator;
     use estimator_core::conditioning::ImpactConfig;
 

@@ -1,0 +1,444 @@
+//! The effect catalogue of the discrepancy workflow: the physical effects a contact model
+//! may be missing ([`Effect`]), their nonlinear parameters ([`Knob`], searched) and the
+//! parameters a fit reports ([`Param`], SI), with the scales their searches are bounded by.
+//! Each effect's law is the core's own (`estimator_core::laws`), used by
+//! [`super::regressors`].
+
+use std::collections::BTreeSet;
+
+use serde::{Deserialize, Serialize};
+
+use super::data::Prepared;
+
+/// A named effect a model may be missing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Elastic force ∝ δⁿ, n ≠ 1 (Hunt-Crossley's elastic part, eq. 3).
+    PowerLawStiffness,
+    /// Elastic force (m/b)(e^{bδ} − 1), the QLV exponential law (eqs. 11/13), alone or
+    /// on the baseline's linear spring κδ ([`Nonlinear::linear_spring`]).
+    ExponentialStiffness,
+    /// Damping ∝ δ^q·δ̇ (Hunt-Crossley, eq. 3) instead of ∝ δ̇.
+    DepthDependentDamping,
+    /// One more exponential mode of the reduced relaxation function (QLV eq. 10/15,
+    /// a Zener arm): a fraction c of the elastic force relaxes at rate ν.
+    Relaxation,
+    /// Load-cell bias left after the tare.
+    ForceOffset,
+    /// Error in the contact position (δ measured from the wrong point).
+    ContactPointOffset,
+    /// Probe/tissue mass: m·δ̈.
+    Inertia,
+    /// Lag of the force channel behind the position channel.
+    TimeDelay,
+    /// Force ∝ sign(δ̇) (Coulomb friction in contact).
+    CoulombFriction,
+    /// Permanent deformation: the contact point moves with the deepest indentation.
+    PlasticSet,
+}
+
+// `ALL[e as usize] == e`, checked when compiling (the design looks effects up by index).
+const _: () = {
+    let mut i = 0;
+    while i < Effect::ALL.len() {
+        assert!(
+            Effect::ALL[i] as usize == i,
+            "Effect::ALL in declaration order"
+        );
+        i += 1;
+    }
+};
+
+impl Effect {
+    /// All effects, in their declaration order (`ALL[e as usize] == e`).
+    pub const ALL: [Effect; 10] = [
+        Effect::PowerLawStiffness,
+        Effect::ExponentialStiffness,
+        Effect::DepthDependentDamping,
+        Effect::Relaxation,
+        Effect::ForceOffset,
+        Effect::ContactPointOffset,
+        Effect::Inertia,
+        Effect::TimeDelay,
+        Effect::CoulombFriction,
+        Effect::PlasticSet,
+    ];
+
+    /// The identifier used in reports and JSON.
+    pub fn id(self) -> &'static str {
+        match self {
+            Effect::PowerLawStiffness => "power_law_stiffness",
+            Effect::ExponentialStiffness => "exponential_stiffness",
+            Effect::DepthDependentDamping => "depth_dependent_damping",
+            Effect::Relaxation => "relaxation",
+            Effect::ForceOffset => "force_offset",
+            Effect::ContactPointOffset => "contact_point_offset",
+            Effect::Inertia => "inertia",
+            Effect::TimeDelay => "time_delay",
+            Effect::CoulombFriction => "coulomb_friction",
+            Effect::PlasticSet => "plastic_set",
+        }
+    }
+
+    /// Parses [`Effect::id`].
+    pub fn from_id(id: &str) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.id() == id)
+    }
+
+    /// One line of physics.
+    pub fn description(self) -> &'static str {
+        match self {
+            Effect::PowerLawStiffness => "elastic force ∝ δⁿ (Hunt-Crossley elastic part)",
+            Effect::ExponentialStiffness => {
+                "elastic force (m/b)(e^{bδ} − 1) (QLV exponential law), alone or with κδ"
+            }
+            Effect::DepthDependentDamping => "damping ∝ δ^q·δ̇ (Hunt-Crossley) instead of ∝ δ̇",
+            Effect::Relaxation => {
+                "stress relaxation: one more exponential mode (Zener arm, QLV eq. 15)"
+            }
+            Effect::ForceOffset => "load-cell bias",
+            Effect::ContactPointOffset => "error in the contact position",
+            Effect::Inertia => "probe/tissue mass m·δ̈",
+            Effect::TimeDelay => "lag between the force and position channels",
+            Effect::CoulombFriction => "force ∝ sign(δ̇)",
+            Effect::PlasticSet => "permanent deformation: the unloading contact point moves",
+        }
+    }
+
+    /// Which of two effects the record cannot tell apart is named: the one that needs
+    /// less of the motion (0 elastic laws: depth alone; 1 offsets and set: a contact;
+    /// 2 relaxation: time under load; 3 rate effects: a speed that varies).
+    pub fn precedence(self) -> u8 {
+        match self {
+            Effect::PowerLawStiffness | Effect::ExponentialStiffness => 0,
+            Effect::ForceOffset | Effect::ContactPointOffset | Effect::PlasticSet => 1,
+            Effect::Relaxation => 2,
+            Effect::DepthDependentDamping
+            | Effect::Inertia
+            | Effect::TimeDelay
+            | Effect::CoulombFriction => 3,
+        }
+    }
+
+    /// Whether the effect's force depends on the motion's rate (δ̇, δ̈, a delay) rather
+    /// than on depth and time alone.
+    pub fn is_rate_effect(self) -> bool {
+        self.precedence() == 3
+    }
+
+    /// Effects that replace the same model piece cannot both be present.
+    pub fn conflicts_with(self, other: Effect) -> bool {
+        matches!(
+            (self, other),
+            (Effect::PowerLawStiffness, Effect::ExponentialStiffness)
+                | (Effect::ExponentialStiffness, Effect::PowerLawStiffness)
+        )
+    }
+
+    /// The parameters the effect adds to a model (those a report shows for it).
+    pub fn own_parameters(self) -> &'static [Param] {
+        match self {
+            Effect::PowerLawStiffness => &[Param::N],
+            Effect::ExponentialStiffness => &[Param::B],
+            Effect::DepthDependentDamping => &[Param::Q],
+            Effect::Relaxation => &[Param::RelaxedFraction, Param::RatePerS],
+            Effect::ForceOffset => &[Param::ForceOffsetN],
+            Effect::ContactPointOffset => &[Param::ContactShiftM],
+            Effect::Inertia => &[Param::MassKg],
+            Effect::TimeDelay => &[Param::DelayS],
+            Effect::CoulombFriction => &[Param::CoulombN],
+            Effect::PlasticSet => &[Param::PlasticFraction],
+        }
+    }
+
+    /// The effect's nonlinear parameter, if any (found by search, not least squares).
+    pub fn knob(self) -> Option<Knob> {
+        match self {
+            Effect::PowerLawStiffness => Some(Knob::Exponent),
+            Effect::ExponentialStiffness => Some(Knob::StiffeningRate),
+            Effect::DepthDependentDamping => Some(Knob::DampingExponent),
+            Effect::Relaxation => Some(Knob::RelaxationRate),
+            Effect::ContactPointOffset => Some(Knob::ContactShift),
+            Effect::TimeDelay => Some(Knob::Delay),
+            Effect::PlasticSet => Some(Knob::PlasticFraction),
+            Effect::CoulombFriction => Some(Knob::SlipRate),
+            Effect::ForceOffset | Effect::Inertia => None,
+        }
+    }
+}
+
+/// A nonlinear parameter of the composite model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+pub enum Knob {
+    /// Refinement of the first-impact contact position \[m\], part of every model: the
+    /// detector's threshold point is biased by the onset shape, the damping step and any
+    /// channel delay, and δ must be measured from the point each model implies.
+    ContactPosition,
+    /// Power-law exponent n.
+    Exponent,
+    /// Exponential stiffening rate b \[1/m\].
+    StiffeningRate,
+    /// Damping exponent q.
+    DampingExponent,
+    /// Relaxation rate ν \[1/s\].
+    RelaxationRate,
+    /// Force-channel delay \[s\].
+    Delay,
+    /// Contact position of the later contacts minus that of the first impact \[m\].
+    ContactShift,
+    /// Plastic-set fraction of the deepest indentation.
+    PlasticFraction,
+    /// Rate \[m/s\] over which Coulomb friction changes sign (F_c·tanh(δ̇/v_s)).
+    SlipRate,
+}
+
+impl Knob {
+    /// Search bounds in the knob's units and whether to search on a log scale.
+    pub(super) fn range(self, scale: &Scales) -> (f64, f64, bool) {
+        let l = scale.depth_m;
+        match self {
+            Knob::ContactPosition => (-0.2 * l, 0.2 * l, false),
+            Knob::Exponent => (0.5, 3.5, false),
+            Knob::StiffeningRate => (0.05 / l, 8.0 / l, true),
+            Knob::DampingExponent => (0.1, 3.0, false),
+            // From a mode slower than the record to one a few samples fast.
+            Knob::RelaxationRate => (
+                (0.3 / scale.duration_s).min(0.05),
+                (0.2 / scale.dt_s).max(1.0),
+                true,
+            ),
+            Knob::Delay => (
+                -(2.0 * scale.dt_s).max(0.01),
+                (5.0 * scale.dt_s).max(0.05),
+                false,
+            ),
+            Knob::ContactShift => (-0.25 * l, 0.25 * l, false),
+            Knob::PlasticFraction => (0.0, 0.4, false),
+            Knob::SlipRate => (0.005 * scale.rate_m_per_s, 0.5 * scale.rate_m_per_s, true),
+        }
+    }
+}
+
+/// A reported parameter of a composite model (SI units), named as in the paper where it
+/// has a symbol there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Param {
+    /// κ \[N/m\], linear stiffness (eq. 1), or the linear spring under an exponential law.
+    Kappa,
+    /// k \[N/m^n\], power-law coefficient (eq. 3).
+    K,
+    /// n, power-law exponent (eq. 3).
+    N,
+    /// m \[N/m\], initial slope of the exponential law (m/b)(e^{bδ} − 1) (QLV, eqs. 11/13).
+    M,
+    /// b \[1/m\], stiffening rate of the exponential law.
+    B,
+    /// λ \[N·s/m\] (eq. 1), or \[N·s/m^(q+1)\] with depth-dependent damping (eq. 3).
+    Lambda,
+    /// q, depth exponent of the damping λ·δ^q·δ̇ (eq. 3 has q = n).
+    Q,
+    /// c, fraction of the elastic force that relaxes (QLV eq. 15, a Zener arm).
+    RelaxedFraction,
+    /// ν \[1/s\], rate of that relaxation mode.
+    RatePerS,
+    /// Probe/tissue mass \[kg\].
+    MassKg,
+    /// Coulomb friction force magnitude F_c \[N\].
+    CoulombN,
+    /// Load-cell bias that appears after the first contact \[N\].
+    ForceOffsetN,
+    /// Refinement of the tare \[N\] (part of every model).
+    TareN,
+    /// Contact position of the later contacts minus the first impact's \[m\].
+    ContactShiftM,
+    /// Force-channel delay \[s\].
+    DelayS,
+    /// Plastic-set fraction of the deepest indentation.
+    PlasticFraction,
+    /// Coulomb slip rate v_s \[m/s\] (F_c·tanh(δ̇/v_s)).
+    SlipRateMPerS,
+    /// Position of the first impact's contact point on the penetration axis \[m\].
+    ContactPositionM,
+}
+
+impl Param {
+    /// The identifier used in reports, JSON and summaries.
+    pub fn id(self) -> &'static str {
+        match self {
+            Param::Kappa => "kappa",
+            Param::K => "k",
+            Param::N => "n",
+            Param::M => "m",
+            Param::B => "b",
+            Param::Lambda => "lambda",
+            Param::Q => "q",
+            Param::RelaxedFraction => "relaxed_fraction",
+            Param::RatePerS => "rate_per_s",
+            Param::MassKg => "mass_kg",
+            Param::CoulombN => "coulomb_n",
+            Param::ForceOffsetN => "force_offset_n",
+            Param::TareN => "tare_n",
+            Param::ContactShiftM => "contact_shift_m",
+            Param::DelayS => "delay_s",
+            Param::PlasticFraction => "plastic_fraction",
+            Param::SlipRateMPerS => "slip_rate_m_per_s",
+            Param::ContactPositionM => "contact_position_m",
+        }
+    }
+
+    /// The parameter a knob's value is reported as (the contact knob is reported as the
+    /// absolute [`Param::ContactPositionM`]).
+    pub fn of_knob(knob: Knob) -> Param {
+        match knob {
+            Knob::ContactPosition => Param::ContactPositionM,
+            Knob::Exponent => Param::N,
+            Knob::StiffeningRate => Param::B,
+            Knob::DampingExponent => Param::Q,
+            Knob::RelaxationRate => Param::RatePerS,
+            Knob::Delay => Param::DelayS,
+            Knob::ContactShift => Param::ContactShiftM,
+            Knob::PlasticFraction => Param::PlasticFraction,
+            Knob::SlipRate => Param::SlipRateMPerS,
+        }
+    }
+}
+
+impl Serialize for Param {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.id())
+    }
+}
+
+/// A fitted parameter: SI value and standard error (NaN where not estimated, 0 for a
+/// coefficient held at its physical bound).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Estimate {
+    /// Which parameter.
+    pub param: Param,
+    /// Value, SI.
+    pub value: f64,
+    /// Standard error, SI.
+    pub standard_error: f64,
+}
+
+/// Typical magnitudes of a log, for scaling and search bounds.
+#[derive(Debug, Clone, Copy)]
+pub struct Scales {
+    /// Deepest penetration \[m\].
+    pub depth_m: f64,
+    /// RMS penetration rate in contact \[m/s\].
+    pub rate_m_per_s: f64,
+    /// Length of the record \[s\].
+    pub duration_s: f64,
+    /// Sample time of the fitting samples \[s\].
+    pub dt_s: f64,
+}
+
+impl Scales {
+    /// From the prepared log.
+    pub fn of(data: &Prepared) -> Self {
+        let depth = data
+            .depth_m
+            .iter()
+            .copied()
+            .fold(0.0f64, f64::max)
+            .max(1e-12);
+        let (mut s, mut n) = (0.0, 0usize);
+        for (c, v) in data.contact.iter().zip(&data.rate_m_per_s) {
+            if *c {
+                s += v * v;
+                n += 1;
+            }
+        }
+        let rate = if n > 0 { (s / n as f64).sqrt() } else { depth };
+        Scales {
+            depth_m: depth,
+            rate_m_per_s: rate.max(1e-12),
+            duration_s: (data.len() as f64 * data.dt).max(data.dt),
+            dt_s: data.dt,
+        }
+    }
+}
+
+/// Values of the nonlinear parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Nonlinear {
+    /// Contact position refinement \[m\] (added to the detector's first-impact point).
+    pub contact_m: f64,
+    /// Power-law exponent n.
+    pub n: f64,
+    /// Exponential stiffening rate b \[1/m\].
+    pub b: f64,
+    /// Damping exponent q.
+    pub q: f64,
+    /// Relaxation rate ν \[1/s\].
+    pub nu: f64,
+    /// Force-channel delay \[s\].
+    pub delay_s: f64,
+    /// Contact position of the later contacts minus the first impact's \[m\].
+    pub contact_shift_m: f64,
+    /// Plastic-set fraction p of the deepest indentation.
+    pub plastic: f64,
+    /// Coulomb slip rate v_s \[m/s\].
+    pub slip_m_per_s: f64,
+    /// Whether the exponential law keeps the baseline's linear spring
+    /// (κδ + m(e^{bδ} − 1)/b) or replaces it (m(e^{bδ} − 1)/b): a structural choice, not
+    /// searched; the workflow fits both and keeps the better by BIC.
+    pub linear_spring: bool,
+}
+
+impl Default for Nonlinear {
+    fn default() -> Self {
+        Nonlinear {
+            contact_m: 0.0,
+            n: 1.0,
+            b: 1.0,
+            q: 0.0,
+            nu: 1.0,
+            delay_s: 0.0,
+            contact_shift_m: 0.0,
+            plastic: 0.0,
+            slip_m_per_s: 1e-3,
+            linear_spring: false,
+        }
+    }
+}
+
+impl Nonlinear {
+    /// The value of a knob.
+    pub fn get(&self, k: Knob) -> f64 {
+        match k {
+            Knob::ContactPosition => self.contact_m,
+            Knob::Exponent => self.n,
+            Knob::StiffeningRate => self.b,
+            Knob::DampingExponent => self.q,
+            Knob::RelaxationRate => self.nu,
+            Knob::Delay => self.delay_s,
+            Knob::ContactShift => self.contact_shift_m,
+            Knob::PlasticFraction => self.plastic,
+            Knob::SlipRate => self.slip_m_per_s,
+        }
+    }
+
+    pub(super) fn set(&mut self, k: Knob, v: f64) {
+        match k {
+            Knob::ContactPosition => self.contact_m = v,
+            Knob::Exponent => self.n = v,
+            Knob::StiffeningRate => self.b = v,
+            Knob::DampingExponent => self.q = v,
+            Knob::RelaxationRate => self.nu = v,
+            Knob::Delay => self.delay_s = v,
+            Knob::ContactShift => self.contact_shift_m = v,
+            Knob::PlasticFraction => self.plastic = v,
+            Knob::SlipRate => self.slip_m_per_s = v,
+        }
+    }
+}
+
+/// The nonlinear parameters of a model: the contact position, then its effects' knobs.
+pub fn knobs_of(effects: &BTreeSet<Effect>) -> Vec<Knob> {
+    std::iter::once(Knob::ContactPosition)
+        .chain(effects.iter().filter_map(|e| e.knob()))
+        .collect()
+}

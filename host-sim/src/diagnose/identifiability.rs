@@ -1,0 +1,120 @@
+//! Identifiability before significance: what the record's motion can tell apart (the
+//! spread of rate and speed at each depth), why an effect is not tried, and which motion
+//! would separate two effects the record confuses.
+
+use super::catalogue::Effect;
+use super::data::Prepared;
+use super::Diagnosis;
+
+/// How much the penetration rate varies at a given depth, relative to its RMS, over the
+/// contact samples of the fit window: √(mean within-bin variance of δ̇) / RMS δ̇, with
+/// the contact samples sorted by depth into 20 bins of equal count. 0 when each depth is
+/// passed at one speed (a loading ramp at any speed profile), about 1 when it is passed
+/// loading and unloading. Below [`RATE_SPREAD_MIN`], every rate effect (λ·δ^q·δ̇, a
+/// delay, δ̈, sign δ̇) is a function of depth on this record, the same signature as an
+/// elastic law: not identifiable.
+pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
+    spread_at_depth(data, start, |v| v)
+}
+
+/// [`rate_spread_at_depth`] of the speed |δ̇|: about 0 also on a record that passes each
+/// depth at one speed in each direction (a load/unload triangle at one speed), where a
+/// sign law, Coulomb friction F_c·sign δ̇, is the linear damping's λ·δ̇ = ±λv and δ̈
+/// vanishes but at the reversals. Below [`RATE_SPREAD_MIN`], Coulomb friction and
+/// inertia are not identifiable.
+pub fn speed_spread_at_depth(data: &Prepared, start: usize) -> f64 {
+    spread_at_depth(data, start, f64::abs)
+}
+
+/// The within-depth-bin spread of `of(δ̇)` relative to its RMS (see
+/// [`rate_spread_at_depth`]).
+pub(super) fn spread_at_depth(data: &Prepared, start: usize, of: impl Fn(f64) -> f64) -> f64 {
+    let mut samples: Vec<(f64, f64)> = (start..data.len())
+        .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0)
+        .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
+        .collect();
+    if samples.len() < 40 {
+        return 0.0;
+    }
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rms = (samples.iter().map(|s| s.1 * s.1).sum::<f64>() / samples.len() as f64).sqrt();
+    if rms <= 0.0 {
+        return 0.0;
+    }
+    let bins = 20;
+    let per = samples.len() / bins;
+    let mut within = 0.0;
+    let mut count = 0usize;
+    for b in 0..bins {
+        let chunk = &samples[b * per..if b + 1 == bins {
+            samples.len()
+        } else {
+            (b + 1) * per
+        }];
+        let m = chunk.iter().map(|s| s.1).sum::<f64>() / chunk.len() as f64;
+        within += chunk.iter().map(|s| (s.1 - m) * (s.1 - m)).sum::<f64>();
+        count += chunk.len();
+    }
+    (within / count as f64).sqrt() / rms
+}
+
+/// [`rate_spread_at_depth`] below which rate effects are not identifiable.
+pub const RATE_SPREAD_MIN: f64 = 0.2;
+
+/// Why the record cannot identify an effect the workflow did not try, and the motion
+/// that would: (reason, motion).
+pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
+    if d.one_speed_each_way_only() && matches!(e, Effect::CoulombFriction | Effect::Inertia) {
+        (
+            "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ vanishes but at the reversals, where a sampled record cannot place the step within a sample",
+            "a second speed (damping scales with it, friction does not) or smooth reversals (a mass needs accelerations)",
+        )
+    } else if e == Effect::PlasticSet {
+        (
+            "the record only loads: a contact point that follows the deepest indentation scales δ by (1 − p), which the elastic law's own parameters absorb",
+            "an unloading (a permanent set shows as a later release)",
+        )
+    } else if e == Effect::Relaxation {
+        (
+            "each depth is passed once, at one speed: the time since contact is a function of depth, so a relaxing memory of the elastic force is one more elastic law (the elastic reading is kept)",
+            separating_motion(Effect::PowerLawStiffness, e),
+        )
+    } else if e == Effect::ContactPointOffset {
+        (
+            "the record has one contact: a shifted contact point for the later contacts has nothing to act on (the contact point itself is refined in every model)",
+            "a lift-off and a second contact",
+        )
+    } else if e.is_rate_effect() {
+        (
+            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0)",
+            separating_motion(Effect::PowerLawStiffness, e),
+        )
+    } else {
+        (
+            "the record never leaves contact: a force offset trades off against the contact point and the elastic law (held at the assumed offset)",
+            "a lift-off out of contact (free-space samples fix the offset)",
+        )
+    }
+}
+
+/// The motion that would separate effects `a` and `b` on a record that cannot.
+pub fn separating_motion(a: Effect, b: Effect) -> &'static str {
+    use Effect::*;
+    let has = |e: Effect| a == e || b == e;
+    let elastic = has(PowerLawStiffness) || has(ExponentialStiffness);
+    if has(Relaxation) {
+        "a hold at constant depth (relaxation decays while the depth stays; rate terms vanish)"
+    } else if has(Inertia) {
+        "a faster tap or oscillation (inertia grows with the acceleration, δ̈)"
+    } else if elastic && (has(DepthDependentDamping) || has(TimeDelay) || has(CoulombFriction)) {
+        "a second indentation speed (a rate effect scales with δ̇, an elastic law does not)"
+    } else if has(TimeDelay) && (has(DepthDependentDamping) || has(CoulombFriction)) {
+        "motion at several frequencies (a delay's force lead grows with frequency, damping's does not)"
+    } else if has(CoulombFriction) {
+        "motion reversals at several speeds (friction's step does not scale with speed)"
+    } else if has(ForceOffset) || has(ContactPointOffset) || has(PlasticSet) {
+        "a lift-off out of contact and back (the offset, the contact point and a set differ there)"
+    } else {
+        "a richer motion: several speeds, a hold and a lift-off"
+    }
+}

@@ -1,0 +1,486 @@
+//! The regressors of the discrepancy workflow: for given nonlinear parameters
+//! ([`super::catalogue::Nonlinear`]) the composite model's force is linear in the
+//! coefficients of its columns ([`Column`]): the elastic law, the damping, the relaxing
+//! part, the mass, friction and offsets, each built from the core's laws
+//! (`estimator_core::laws`) and block-averaged like the record.
+
+use std::collections::BTreeSet;
+
+use estimator_core::laws;
+
+use super::catalogue::{Effect, Nonlinear, Scales};
+use super::data::Prepared;
+
+/// A regression column of the composite model: its coefficient is solved by least
+/// squares for given [`Nonlinear`] values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// The elastic law (κδ, or L·(δ/L)ⁿ, or (e^{bδ} − 1)/b), coefficient κ, k·L^(n−1) or m.
+    Elastic,
+    /// The damping δ̇ (or L^q·(δ/L)^q·δ̇), coefficient λ or λ·L^q.
+    Damping,
+    /// The linear spring κδ under an exponential law.
+    LinearSpring,
+    /// The relaxing part of the elastic column (a first-order low-pass of it, negated).
+    Relaxing,
+    /// δ̈, coefficient the mass.
+    Inertia,
+    /// tanh(δ̇/v_s), coefficient F_c.
+    Coulomb,
+    /// 1, coefficient the tare refinement.
+    Tare,
+    /// 1 after the first contact, coefficient the later load-cell bias.
+    ForceOffset,
+}
+
+impl Column {
+    /// Whether the coefficient is non-negative physically: the elastic and the damping
+    /// coefficient of a passive material (κ, k, m ≥ 0 and λ ≥ 0 at every step, the
+    /// baseline included), a mass and a friction force's magnitude.
+    pub fn non_negative(self) -> bool {
+        matches!(
+            self,
+            Column::Elastic
+                | Column::Damping
+                | Column::LinearSpring
+                | Column::Inertia
+                | Column::Coulomb
+        )
+    }
+}
+
+/// Columns of the regression, named.
+pub(super) struct Design {
+    pub(super) names: Vec<Column>,
+    /// Column-major values over the fit window.
+    pub(super) columns: Vec<Vec<f64>>,
+    /// Material force columns (gated by contact), as opposed to the offset.
+    pub(super) material: Vec<bool>,
+    /// Contact gate per sample.
+    pub(super) gate: Vec<bool>,
+}
+
+impl Design {
+    /// Σ β_j·column_j at sample `i` over the material columns (`material`) or the
+    /// others.
+    pub(super) fn sum_at(&self, beta: &[f64], i: usize, material: bool) -> f64 {
+        self.columns
+            .iter()
+            .zip(beta)
+            .zip(&self.material)
+            .filter(|(_, m)| **m == material)
+            .map(|((c, b), _)| c[i] * b)
+            .sum()
+    }
+}
+
+/// Linear interpolation of `v` at fractional index `x`.
+pub(super) fn interp(v: &[f64], x: f64) -> f64 {
+    if x <= 0.0 {
+        return v[0];
+    }
+    // x > 0 here: truncation is the floor (`f64::floor` is a libm call on x86-64 without
+    // SSE4.1, and this runs per raw sample of a block at a contact's edge).
+    let i = x as usize;
+    if i + 1 >= v.len() {
+        return v[v.len() - 1];
+    }
+    let f = x - i as f64;
+    v[i] * (1.0 - f) + v[i + 1] * f
+}
+
+pub(super) fn design(
+    data: &Prepared,
+    start: usize,
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    scale: &Scales,
+) -> Design {
+    let n = data.len() - start;
+    // (Looked up per sample: a table, not the set.)
+    let present: [bool; Effect::ALL.len()] = Effect::ALL.map(|e| effects.contains(&e));
+    let has = |e: Effect| present[e as usize];
+    let shift = if has(Effect::TimeDelay) {
+        nl.delay_s / data.dt
+    } else {
+        0.0
+    };
+    // Delayed motion: block averages of the raw depth over a window shifted by the delay
+    // (exact for the linearly interpolated raw signal, from prefix sums), and their
+    // differences; the undelayed signals are the prepared ones.
+    let delayed: Option<[Vec<f64>; 3]> = (shift != 0.0).then(|| {
+        let b = data.block as f64;
+        let avg = |k: isize| data.raw_block_mean(k as f64 * b - shift * b);
+        let dt = data.dt;
+        let mut dd = Vec::with_capacity(n);
+        let mut vv = Vec::with_capacity(n);
+        let mut aa = Vec::with_capacity(n);
+        for i in 0..n {
+            let k = (start + i) as isize;
+            let (m0, m1, p1) = (avg(k - 1), avg(k), avg(k + 1));
+            dd.push(m1);
+            vv.push((p1 - m0) / (2.0 * dt));
+            aa.push((p1 - 2.0 * m1 + m0) / (dt * dt));
+        }
+        [dd, vv, aa]
+    });
+    let series = |which: usize, i: usize| match &delayed {
+        Some(d) => d[which][i],
+        None => [&data.depth_m, &data.rate_m_per_s, &data.accel_m_per_s2][which][start + i],
+    };
+    let l = scale.depth_m;
+    let v0 = nl.slip_m_per_s;
+    let coulomb_on = has(Effect::CoulombFriction);
+    let mut deepest = f64::NEG_INFINITY;
+    let mut gate = Vec::with_capacity(n);
+    let (mut elastic, mut damping, mut inertia, mut coulomb, mut linear) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+    );
+    // Material terms of one instant: (in contact, elastic, damping, Coulomb) for the
+    // depth δ_e below the (shifted, plastically set) contact point and rate v.
+    let terms = |de: f64, v: f64| -> (f64, f64, f64, f64, f64) {
+        if de <= 0.0 {
+            return (0.0, 0.0, 0.0, 0.0, 0.0);
+        }
+        // The core's laws (estimator_core::laws), on δ scaled by the deepest
+        // penetration L for conditioning: L·(δ/L)ⁿ and (e^{bδ} − 1)/b.
+        // (ln(δ/L) once for both power laws: the same e^{n·ln x} as laws::power_law.)
+        let x = de / l;
+        let ln_x = if has(Effect::PowerLawStiffness) || has(Effect::DepthDependentDamping) {
+            laws::ln_depth(x)
+        } else {
+            None
+        };
+        let e = if has(Effect::PowerLawStiffness) {
+            laws::power_law_of_ln(ln_x, nl.n) * l
+        } else if has(Effect::ExponentialStiffness) {
+            laws::exponential_law(de, nl.b)
+        } else {
+            de
+        };
+        let dv = if has(Effect::DepthDependentDamping) {
+            laws::power_law_of_ln(ln_x, nl.q) * v
+        } else {
+            v
+        };
+        (
+            1.0,
+            e,
+            dv,
+            if coulomb_on { (v / v0).tanh() } else { 0.0 },
+            de,
+        )
+    };
+    let block = data.block;
+    let half = (block as f64 - 1.0) / 2.0;
+    // Block means of the laws over a block of B > 1 raw samples in contact, from the
+    // quadratic δ(u) = δ̄ + δ̇·u·T/B + ½δ̈·(u² − σ²)·(T/B)² through the block means (u the
+    // raw sample's offset from the block's centre, σ² = (B² − 1)/12 its variance over the
+    // block, δ̄, δ̇ and δ̈ the prepared depth, rate and acceleration): a curved law averaged
+    // over a 16 ms block of a 2 Hz tap differs from its value at δ̄ by about the noise of
+    // a block, a systematic error the fit would otherwise name inertia or a delay.
+    // - elastic: the two-point rule at u = ±σ, where δ = δ̄ ± σ·δ̇·T/B (exact for a law
+    //   quadratic in u; the linear spring's mean is δ̄ itself);
+    // - damping: the mean of g(δ)·δ̇ is the increment of the antiderivative of g across the
+    //   block, u = ±B/2, divided by T: δ̇ itself for λ·δ̇, L·Δ(δ/L)^{q+1}/((q + 1)·T) for
+    //   λ·δ^q·δ̇ (q ≥ 0.1).
+    let spread = ((block * block) as f64 - 1.0).max(0.0).sqrt() / 12f64.sqrt();
+    let per_sample = data.dt / block as f64;
+    let elastic_law = |de: f64| -> f64 {
+        if has(Effect::PowerLawStiffness) {
+            laws::power_law_of_ln(laws::ln_depth(de / l), nl.n) * l
+        } else if has(Effect::ExponentialStiffness) {
+            laws::exponential_law(de, nl.b)
+        } else {
+            de
+        }
+    };
+    let curvature = (2.0 * (block * block) as f64 + 1.0) / 24.0 * per_sample * per_sample;
+    // (elastic, damping) block means at mean depth δ̄ > 0, rate δ̇ and acceleration δ̈.
+    // Where the spread s = σ·δ̇·T/B, the half-increment h = δ̇·T/2 and the shift
+    // c = δ̈·(2B² + 1)/24·(T/B)² of the middle are below a tenth of δ̄ (and b·s below a
+    // tenth), by the rules' Taylor series about δ̄, from one ln δ̄: f + ½f''·s² for the
+    // elastic law (f'' = n(n − 1)·f/δ̄², b·(b·f + 1)), δ̇·g(δ̄ + c)·(1 + q(q − 1)·h²/(6(δ̄ + c)²))
+    // for the damping; the next terms are ~(s/δ̄)⁴, below 10⁻⁵ of the law. Elsewhere (the
+    // first blocks of a contact) by the rules themselves.
+    let block_means = |mean: f64, rate: f64, accel: f64| -> (f64, f64) {
+        let s = spread * rate * per_sample;
+        let h = 0.5 * rate * data.dt;
+        let c = accel * curvature;
+        let small = |x: f64| x * x < 1e-2 * mean * mean;
+        let ln_x = if has(Effect::PowerLawStiffness) || has(Effect::DepthDependentDamping) {
+            laws::ln_depth(mean / l)
+        } else {
+            None
+        };
+        let elastic = if has(Effect::PowerLawStiffness) {
+            if small(s) {
+                let f = laws::power_law_of_ln(ln_x, nl.n) * l;
+                f * (1.0 + 0.5 * nl.n * (nl.n - 1.0) * (s / mean) * (s / mean))
+            } else {
+                0.5 * (elastic_law(mean - s) + elastic_law(mean + s))
+            }
+        } else if has(Effect::ExponentialStiffness) {
+            if small(s) && (nl.b * s) * (nl.b * s) < 1e-2 {
+                let f = laws::exponential_law(mean, nl.b);
+                f + 0.5 * nl.b * (nl.b * f + 1.0) * s * s
+            } else {
+                0.5 * (elastic_law(mean - s) + elastic_law(mean + s))
+            }
+        } else {
+            mean
+        };
+        let damping = if has(Effect::DepthDependentDamping) {
+            let q = nl.q;
+            let middle = mean + c;
+            if small(h) && small(c) {
+                // ln(δ̄ + c) = ln δ̄ + ln(1 + c/δ̄), the latter to third order (|c/δ̄| < 0.1).
+                let r = c / mean;
+                let ln_middle = ln_x.map(|x| x + r - 0.5 * r * r + r * r * r / 3.0);
+                let g = laws::power_law_of_ln(ln_middle, q);
+                rate * g * (1.0 + q * (q - 1.0) * (h / middle) * (h / middle) / 6.0)
+            } else {
+                let q1 = q + 1.0;
+                let integral = |d: f64| laws::power_law_of_ln(laws::ln_depth(d / l), q1) * l / q1;
+                (integral(middle + h) - integral(middle - h)) / data.dt
+            }
+        } else {
+            rate
+        };
+        (elastic, damping)
+    };
+    for i in 0..n {
+        // δ from the refined first-impact point; later contacts from the shifted one.
+        // (The knob moves the first contact's point, so that the shared refinement
+        // follows the later contacts, which hold most of the record.)
+        let mut reference = nl.contact_m;
+        if has(Effect::ContactPointOffset) && start + i < data.first_contact_end {
+            reference -= nl.contact_shift_m;
+        }
+        let d = series(0, i) - reference;
+        let v = series(1, i);
+        deepest = deepest.max(d);
+        if has(Effect::PlasticSet) {
+            reference += nl.plastic * deepest.max(0.0);
+        }
+        // A block in which the contact begins or ends is averaged sample by sample (the
+        // damping step at impact and the onset shape do not average linearly).
+        let b = if shift == 0.0 {
+            start + i
+        } else {
+            // (⌊x⌋ clamped at 0: `as` saturates negatives to 0 and truncates the rest.)
+            ((start + i) as f64 - shift) as usize
+        };
+        let (lo, hi) = (
+            data.block_min_depth_m[b.min(data.len() - 1)],
+            data.block_max_depth_m[(b + 1).min(data.len() - 1)],
+        );
+        let (lo, hi) = (
+            lo.min(data.block_min_depth_m[(b + 1).min(data.len() - 1)]),
+            hi.max(data.block_max_depth_m[b.min(data.len() - 1)]),
+        );
+        // So is a block in which the motion reverses when Coulomb friction is modelled.
+        let reverses = has(Effect::CoulombFriction) && {
+            let (a, b) = (
+                series(1, i.saturating_sub(1)),
+                series(1, (i + 1).min(n - 1)),
+            );
+            a * v <= 0.0 || b * v <= 0.0
+        };
+        let (g, e, dv, c, de) = if block > 1 && ((lo < reference && hi > reference) || reverses) {
+            let mut sum = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for j in 0..block {
+                let raw = ((start + i) * block + j) as f64 - shift * block as f64;
+                let dj = interp(&data.raw_depth_m, raw) - reference;
+                let vj = interp(&data.rate_m_per_s, (raw - half) / block as f64);
+                let t = terms(dj, vj);
+                sum = (
+                    sum.0 + t.0,
+                    sum.1 + t.1,
+                    sum.2 + t.2,
+                    sum.3 + t.3,
+                    sum.4 + t.4,
+                );
+            }
+            let k = block as f64;
+            (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k, sum.4 / k)
+        } else if block > 1 {
+            // A block inside or outside contact: the mean of the laws over its raw samples
+            // (see `block_means`), not their value at the block's mean depth.
+            let de = series(0, i) - reference;
+            if de <= 0.0 {
+                terms(de, v)
+            } else {
+                let (e, dv) = block_means(de, v, series(2, i));
+                (
+                    1.0,
+                    e,
+                    dv,
+                    if coulomb_on { (v / v0).tanh() } else { 0.0 },
+                    de,
+                )
+            }
+        } else {
+            let de = series(0, i) - reference;
+            terms(de, v)
+        };
+        gate.push(g > 0.0);
+        elastic.push(e);
+        if has(Effect::ExponentialStiffness) && nl.linear_spring {
+            linear.push(de);
+        }
+        damping.push(if data.hold_damping { 0.0 } else { dv });
+        if has(Effect::Inertia) {
+            inertia.push(g * series(2, i));
+        }
+        if has(Effect::CoulombFriction) {
+            coulomb.push(c);
+        }
+    }
+    let mut names = vec![Column::Elastic, Column::Damping];
+    let mut columns = vec![elastic, damping];
+    let mut material = vec![true, true];
+    if has(Effect::ExponentialStiffness) && nl.linear_spring {
+        // The exponential law on the baseline's linear spring (κδ + m(e^{bδ} − 1)/b):
+        // alone, its initial slope m is tied to its curvature, and a material that starts
+        // nearly linear and then stiffens (a compressed silicone: log-log slope 1.1 →
+        // 2.3) is fitted by moving the contact point. Where the exponential alone fits,
+        // the extra column trades against the contact point and the search can end in a
+        // worse optimum; hence both variants are fitted (`Nonlinear::linear_spring`).
+        names.push(Column::LinearSpring);
+        columns.push(linear);
+        material.push(true);
+    }
+    if has(Effect::Relaxation) {
+        let alpha = -(-nl.nu * data.dt).exp_m1();
+        let mut y = 0.0;
+        let lp: Vec<f64> = columns[0]
+            .iter()
+            .zip(&gate)
+            .map(|(u, g)| {
+                y += alpha * (u - y);
+                if *g {
+                    -y
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        names.push(Column::Relaxing);
+        columns.push(lp);
+        material.push(true);
+    }
+    if has(Effect::Inertia) {
+        names.push(Column::Inertia);
+        columns.push(inertia);
+        material.push(true);
+    }
+    if has(Effect::CoulombFriction) {
+        names.push(Column::Coulomb);
+        columns.push(coulomb);
+        material.push(true);
+    }
+    // The tare refined (part of every model): the detector's tare averages a few
+    // hundred free-space samples, an error the fit over thousands would otherwise
+    // blame on an effect.
+    names.push(Column::Tare);
+    columns.push(vec![if data.hold_tare { 0.0 } else { 1.0 }; n]);
+    material.push(false);
+    if has(Effect::ForceOffset) {
+        // A bias the tare before the first impact missed appeared after it: a zero
+        // shift of the load cell after its first load.
+        names.push(Column::ForceOffset);
+        columns.push(
+            (start..data.len())
+                .map(|b| {
+                    if b >= data.first_contact_end {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        );
+        material.push(false);
+    }
+    Design {
+        names,
+        columns,
+        material,
+        gate,
+    }
+}
+
+/// The force \[N\] of a model with given coefficients over the record from
+/// [`Prepared::fit_start`] on (the same samples as a [`super::solver::Fit`]'s prediction): the design
+/// [`super::solver::fit`] regresses on, each column times `coefficient(column)` (the regression's own
+/// columns and scaling: see [`crate::diagnose::spec`] for the SI conversion), with
+/// the unilateral clipping of the fit's evaluation (material force only where the
+/// material terms push). The record's damping and tare holds do not apply: the
+/// coefficients are given.
+pub fn predict(
+    data: &Prepared,
+    effects: &BTreeSet<Effect>,
+    nl: &Nonlinear,
+    coefficient: impl Fn(Column) -> f64,
+) -> Vec<f64> {
+    let start = data.fit_start();
+    let scale = Scales::of(data);
+    let mut free = data.clone();
+    free.hold_damping = false;
+    free.hold_tare = false;
+    let full = design(&free, start, effects, nl, &scale);
+    let n = data.len() - start;
+    let beta: Vec<f64> = full.names.iter().map(|c| coefficient(*c)).collect();
+    let m: Vec<f64> = (0..n).map(|i| full.sum_at(&beta, i, true)).collect();
+    let block = data.block.max(1);
+    (0..n)
+        .map(|i| touch_weight(&full, &m, i, block) * m[i] + full.sum_at(&beta, i, false))
+        .collect()
+}
+
+/// Weight of the material terms at sample `i` given their unclipped sum `m`: 1 out of
+/// contact (the terms are 0 there), 0 where they pull, and in between for a sample in
+/// which they change sign (the mean of max(0, m) over the sample's `block` raw samples,
+/// m linear through the neighbours, over m).
+pub(super) fn touch_weight(design: &Design, m: &[f64], i: usize, block: usize) -> f64 {
+    if !design.gate[i] {
+        return 1.0;
+    }
+    if m[i] <= 0.0 {
+        return 0.0;
+    }
+    let n = m.len();
+    let slope = 0.5 * (m[(i + 1).min(n - 1)] - m[i.saturating_sub(1)]);
+    if m[i] >= 0.5 * slope.abs() {
+        // Positive over the whole sample: the mean of the line is its middle, m.
+        return 1.0;
+    }
+    let mean: f64 = (0..block)
+        .map(|j| (m[i] + ((j as f64 + 0.5) / block as f64 - 0.5) * slope).max(0.0))
+        .sum::<f64>()
+        / block as f64;
+    (mean / m[i]).clamp(0.0, 1.0)
+}
+
+/// The design with the material columns weighted by `touch`.
+pub(super) fn mask_rows(full: Design, touch: &[f64]) -> Design {
+    let mut columns = full.columns;
+    for (c, m) in columns.iter_mut().zip(&full.material) {
+        if *m {
+            for (v, w) in c.iter_mut().zip(touch) {
+                *v *= w;
+            }
+        }
+    }
+    Design {
+        names: full.names,
+        columns,
+        material: full.material,
+        gate: full.gate,
+    }
+}

@@ -1,0 +1,182 @@
+//! The scoring of the discrepancy workflow: blocked cross-validation, the Bayesian
+//! information criterion on effective samples (N_eff from the autocorrelation of the
+//! record's sensor noise), and the acceptance of a candidate.
+
+use super::catalogue::{Effect, Param};
+use super::data::Prepared;
+use super::regressors::Design;
+use super::solver::{least_squares, Fit};
+use super::{Candidate, Options};
+
+/// Number of blocked cross-validation folds.
+pub const FOLDS: usize = 5;
+
+/// Blocked cross-validation with the nonlinear parameters and contact gates fixed: the
+/// linear coefficients are refitted without each contiguous fifth of the record and
+/// tested on it.
+pub(super) fn cross_validate(design: &Design, y: &[f64]) -> Vec<f64> {
+    let n = y.len();
+    (0..FOLDS)
+        .map(|f| {
+            let (lo, hi) = (f * n / FOLDS, (f + 1) * n / FOLDS);
+            let train: Vec<bool> = (0..n).map(|i| i < lo || i >= hi).collect();
+            match least_squares(design, y, Some(&train), &[]) {
+                Some(s) => {
+                    let e: f64 = (lo..hi)
+                        .map(|i| {
+                            let p: f64 = design
+                                .columns
+                                .iter()
+                                .zip(&s.beta)
+                                .map(|(c, b)| c[i] * b)
+                                .sum();
+                            (y[i] - p) * (y[i] - p)
+                        })
+                        .sum();
+                    (e / (hi - lo).max(1) as f64).sqrt()
+                }
+                None => f64::INFINITY,
+            }
+        })
+        .collect()
+}
+
+/// The residual sum of squares below which two fits are equally exact: n·(10⁻⁴ of the
+/// force range)², a 14-bit load cell's resolution. Without it two noise-free fits
+/// would differ by the search's rounding.
+pub(super) fn rss_floor(data: &Prepared, fit: &Fit) -> f64 {
+    let y = &data.force_n[fit.start..];
+    let range = y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - y.iter().copied().fold(f64::INFINITY, f64::min);
+    y.len() as f64 * (1e-4 * range).powi(2)
+}
+
+/// BIC of `a` minus BIC of `b` on `n_eff` effective samples, residuals floored at
+/// `floor` \[N²\]: N_eff·ln((RSS_a + floor)/(RSS_b + floor)) + (p_a − p_b)·ln N_eff.
+pub fn delta_bic(a: &Fit, b: &Fit, n_eff: f64, floor: f64) -> f64 {
+    n_eff * ((a.rss + floor) / (b.rss + floor)).ln()
+        + (a.free_parameters as f64 - b.free_parameters as f64) * n_eff.ln()
+}
+
+/// The effective samples a fit's BIC counts: its N times the noise's
+/// [`noise_sample_fraction`], or N when the record has no free space to measure the noise
+/// on (its colour is then unknown: counting by the residual's own autocorrelation would count a
+/// missing effect as coloured noise and reject it).
+pub(super) fn samples_counted(fit: &Fit, noise_fraction: Option<f64>) -> f64 {
+    match noise_fraction {
+        Some(f) => (f * fit.samples as f64).max(2.0),
+        None => fit.samples as f64,
+    }
+}
+
+/// N_eff / N of the sensor noise: 1 / (1 + 2 Σ ρ_k) over the positive autocorrelations
+/// (at most 50 lags) of the force on the record's free-space stretches (each of at least
+/// 20 fitting samples, its own least-squares line removed). `None` when the record has fewer
+/// than 100 such samples or the front end found no free space.
+pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
+    if data.offset_unidentified {
+        // "Free space" behind a contact point the front end could not confirm may still
+        // carry contact force: it measures misfit, not noise.
+        return None;
+    }
+    let mut runs: Vec<Vec<f64>> = Vec::new();
+    let mut run: Vec<f64> = Vec::new();
+    for (c, f) in data.contact.iter().zip(&data.force_n) {
+        if *c {
+            if run.len() >= 20 {
+                runs.push(std::mem::take(&mut run));
+            }
+            run.clear();
+        } else {
+            run.push(*f);
+        }
+    }
+    if run.len() >= 20 {
+        runs.push(run);
+    }
+    // Each stretch detrended (its least-squares line removed): a slow drift of the
+    // free-space force (hydrodynamic drag on an approach, thermal drift) is not noise.
+    for r in &mut runs {
+        let n = r.len() as f64;
+        let tm = (n - 1.0) / 2.0;
+        let m = r.iter().sum::<f64>() / n;
+        let (stt, sty) = r.iter().enumerate().fold((0.0, 0.0), |(a, b), (i, v)| {
+            let t = i as f64 - tm;
+            (a + t * t, b + t * (v - m))
+        });
+        let slope = sty / stt;
+        r.iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v -= m + slope * (i as f64 - tm));
+    }
+    if runs.iter().map(Vec::len).sum::<usize>() < 100 {
+        return None;
+    }
+    let var: f64 = runs.iter().flatten().map(|v| v * v).sum();
+    if var <= 0.0 {
+        return Some(1.0);
+    }
+    let mut sum = 0.0;
+    for k in 1..=50 {
+        let c: f64 = runs
+            .iter()
+            .filter(|r| r.len() > k)
+            .map(|r| r.iter().zip(&r[k..]).map(|(a, b)| a * b).sum::<f64>())
+            .sum();
+        let rho = c / var;
+        if rho <= 0.0 {
+            break;
+        }
+        sum += rho;
+    }
+    Some(1.0 / (1.0 + 2.0 * sum))
+}
+
+#[allow(clippy::too_many_arguments)]
+pub(super) fn score(
+    effect: Effect,
+    replaces: Option<Effect>,
+    fit: Fit,
+    current: &Fit,
+    options: &Options,
+    duration_s: f64,
+    noise_fraction: Option<f64>,
+) -> Candidate {
+    let n_eff = samples_counted(&fit, noise_fraction);
+    let delta_bic = delta_bic(&fit, current, n_eff, 0.0);
+    let cv_improvement = 1.0 - fit.cv_rmse / current.cv_rmse;
+    let folds_better = fit
+        .cv_rmse_per_fold
+        .iter()
+        .zip(&current.cv_rmse_per_fold)
+        .filter(|(a, b)| a < b)
+        .count();
+    let is_physical = physical(&fit, duration_s);
+    let significant = is_physical
+        && delta_bic < -options.min_bic_drop
+        && folds_better >= options.min_folds_better
+        && cv_improvement >= options.min_cv_improvement;
+    Candidate {
+        effect,
+        replaces,
+        fit,
+        delta_bic,
+        cv_improvement,
+        folds_better,
+        significant,
+        physical: is_physical,
+    }
+}
+
+/// Whether the fitted linear parameters describe a passive material over the
+/// `duration_s` of the fit: a relaxation mode relaxes (relaxed fraction c ≥ 0; a negative
+/// one is a force that grows while the depth is held, mimicking stiffening) and never
+/// by more than the whole force within the record (c·(1 − e^(−ν·T)) < 1: a mode slower
+/// than the record only fixes the product c·ν, so c alone may exceed 1); friction
+/// opposes motion (c ≥ 0).
+pub fn physical(fit: &Fit, duration_s: f64) -> bool {
+    let rate = fit.parameter(Param::RatePerS).unwrap_or(0.0);
+    fit.parameter(Param::RelaxedFraction)
+        .is_none_or(|c| c >= 0.0 && c * -(-rate * duration_s).exp_m1() < 1.0)
+        && fit.parameter(Param::CoulombN).is_none_or(|c| c >= 0.0)
+}
