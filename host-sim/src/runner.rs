@@ -196,7 +196,9 @@ pub fn run(
     let phase_threshold = phases::speed_threshold(position_m, dt);
     let mut classifier = PhaseClassifier::new(phase_threshold);
     let mut phase = Phase::FreeSpace;
-    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    // Samples per distinct status value, named after the loop (not a name String per
+    // flag and sample).
+    let mut by_status: BTreeMap<u32, usize> = BTreeMap::new();
     let mut first_contact = None;
     let mut phase_parameters = BTreeMap::new();
     let mut last_parameters: Option<AnyParameters> = None;
@@ -241,14 +243,18 @@ pub fn run(
             }
         }
         last_parameters = Some(out.estimate.parameters);
-        for (name, _) in out.status.iter_names() {
-            *counts.entry(name.to_string()).or_default() += 1;
-        }
+        *by_status.entry(out.status.bits()).or_default() += 1;
         if (i + 1) % 10_000 == 0 {
             progress(i + 1);
         }
     }
     progress(n);
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for (bits, samples) in by_status {
+        for (name, _) in Status::from_bits_retain(bits).iter_names() {
+            *counts.entry(name.to_string()).or_default() += samples;
+        }
+    }
     let Some(first) = first_contact else {
         return Err(RunError::NoContact {
             threshold_n: f64::from(pipeline.onset_threshold_n()),

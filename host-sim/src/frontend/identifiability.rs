@@ -179,7 +179,9 @@ pub const MIN_ONLINE_FRACTION: f64 = 0.8;
 /// of the record. The relaxation filter of Zener and Hammerstein is judged by
 /// [`relaxation_verdict`].
 pub fn for_model(front: &FrontEnd, model: ModelKind) -> Vec<Verdict> {
-    let mut verdicts = whole_record(front, model, None, &[]);
+    // The law along the points once, shared by the whole record and every window.
+    let along = front.law_along();
+    let mut verdicts = whole_record(front, &along, model, None, &[]);
     let Some(j) = verdicts.iter().position(|v| v.name == "lambda") else {
         return verdicts;
     };
@@ -192,7 +194,7 @@ pub fn for_model(front: &FrontEnd, model: ModelKind) -> Vec<Verdict> {
     let mut start = t0;
     while start < t1 {
         let window = (start, start + ONLINE_WINDOW_S);
-        let v = whole_record(front, model, Some(window), &[]);
+        let v = whole_record(front, &along, model, Some(window), &[]);
         let points = v.first().map_or(0, |v| v.points);
         if points >= 20 {
             total += points;
@@ -218,23 +220,28 @@ pub fn for_model(front: &FrontEnd, model: ModelKind) -> Vec<Verdict> {
 /// columns leave the regression, so a parameter collinear only with a held one is
 /// determined).
 pub fn without_held(front: &FrontEnd, model: ModelKind, held: &[&str]) -> Vec<Verdict> {
-    whole_record(front, model, None, held)
+    whole_record(front, &front.law_along(), model, None, held)
 }
 
 /// As [`for_model`] over the whole record, or over the points in `window` (start, end)
-/// \[s\], leaving out the parameters in `held`.
+/// \[s\], leaving out the parameters in `held`; `along` is [`FrontEnd::law_along`].
 fn whole_record(
     front: &FrontEnd,
+    along: &(Vec<f64>, Vec<f64>, Vec<f64>),
     model: ModelKind,
     window: Option<(f64, f64)>,
     held: &[&str],
 ) -> Vec<Verdict> {
     let law = &front.law;
-    let (depth, rate, predicted) = front.law_along();
+    let (depth, rate, predicted) = (&along.0, &along.1, &along.2);
     let t = &front.series.time_s;
-    let contact: Vec<usize> = (0..depth.len())
+    // The points' times increase: a window is one index range.
+    let points = match window {
+        Some((a, b)) => t.partition_point(|&t| t < a)..t.partition_point(|&t| t < b),
+        None => 0..depth.len(),
+    };
+    let contact: Vec<usize> = points
         .filter(|&i| depth[i] > 0.0 && predicted[i] > 0.0)
-        .filter(|&i| window.is_none_or(|(a, b)| t[i] >= a && t[i] < b))
         .collect();
     let force: Vec<f64> = contact
         .iter()
