@@ -368,6 +368,12 @@ pub(crate) struct CsvLines<R> {
 
 impl<R: std::io::BufRead> CsvLines<R> {
     pub(crate) fn new(input: R) -> Self {
+        Self::after_line(input, 0)
+    }
+
+    /// Records of `input` taken as the file's lines after line `number` (a piece of a
+    /// file split at line breaks): line numbers go on from there.
+    pub(crate) fn after_line(input: R, number: usize) -> Self {
         CsvLines {
             input,
             parser: csv_core::Reader::new(),
@@ -375,8 +381,13 @@ impl<R: std::io::BufRead> CsvLines<R> {
             fields: vec![0; 256],
             ends: vec![0; 16],
             count: 0,
-            number: 0,
+            number,
         }
+    }
+
+    /// The input, positioned after the current record's line, and that line's number.
+    pub(crate) fn into_parts(self) -> (R, usize) {
+        (self.input, self.number)
     }
 
     /// Advances to the next record; `Ok(false)` at the end of the input.
