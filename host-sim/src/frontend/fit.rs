@@ -347,7 +347,7 @@ impl<'a> Problem<'a> {
     /// [`Problem::solve`] with the contact point's `logs` already computed.
     fn solve_at(&self, logs: &[Option<f64>], k: Knobs) -> Option<(Vector3<f64>, f64)> {
         let (g, h) = self.columns(logs, k);
-        let sums = self.normal_sums(&g, &h, None);
+        let sums = self.normal_sums(&g, &h, |_| false);
         let full = self.solve_columns(&g, &h, &sums, [true, true])?;
         if full.0[1] >= 0.0 && full.0[2] >= 0.0 {
             return Some(full);
@@ -368,20 +368,16 @@ impl<'a> Problem<'a> {
     }
 
     /// Sums of the normal equations of φ = \[1 (free offset) or 0, g, h\] over the points
-    /// not `free`: \[Σ1, Σg, Σh, Σg², Σgh, Σh², Σy, Σgy, Σhy, Σy²\]. A column left out
-    /// of a fit is the same sums with its entries zeroed ([`Problem::solve_sums`]), so one
-    /// pass serves the fit and both one-column fits.
-    fn normal_sums(&self, g: &[f64], h: &[f64], free: Option<&[bool]>) -> [f64; 10] {
+    /// not `free` (by index): \[Σ1, Σg, Σh, Σg², Σgh, Σh², Σy, Σgy, Σhy, Σy²\]. A column
+    /// left out of a fit is the same sums with its entries zeroed ([`Problem::solve_sums`]),
+    /// so one pass serves the fit and both one-column fits.
+    fn normal_sums(&self, g: &[f64], h: &[f64], free: impl Fn(usize) -> bool) -> [f64; 10] {
         let fixed = self.fixed_offset();
         let one = if fixed.is_some() { 0.0 } else { 1.0 };
         let mut s = [0.0; 10];
         for i in 0..g.len() {
             let y = self.f[i] - fixed.unwrap_or(0.0);
-            let (gi, hi) = if free.is_some_and(|f| f[i]) {
-                (0.0, 0.0)
-            } else {
-                (g[i], h[i])
-            };
+            let (gi, hi) = if free(i) { (0.0, 0.0) } else { (g[i], h[i]) };
             s[0] += one;
             s[1] += one * gi;
             s[2] += one * hi;
@@ -433,13 +429,10 @@ impl<'a> Problem<'a> {
                 if mask[0] { theta[1] } else { 0.0 },
                 if mask[1] { theta[2] } else { 0.0 },
             );
-            let free: Vec<bool> = g
-                .iter()
-                .zip(h)
-                .map(|(g, h)| *g > 0.0 && a * g + b * h < 0.0)
-                .collect();
-            if free.contains(&true) {
-                let sums = self.normal_sums(g, h, Some(&free));
+            // Tested where needed, not stored: this runs for every exponent the searches try.
+            let free = |i: usize| g[i] > 0.0 && a * g[i] + b * h[i] < 0.0;
+            if (0..g.len()).any(free) {
+                let sums = self.normal_sums(g, h, free);
                 result = self.solve_sums(&sums, mask)?;
             }
         }
