@@ -37,7 +37,8 @@ struct Layout<'p> {
 }
 
 /// The rows of one piece of a block, parsed: up to its first malformed row, whose error
-/// is kept for when the rows before it have been checked.
+/// is kept for when the rows before it have been checked. Reused from block to block (no
+/// fresh pages for every block's rows).
 #[derive(Default)]
 struct Piece {
     /// Line and (time, position, force) of each row.
@@ -49,13 +50,12 @@ struct Piece {
 }
 
 impl Piece {
-    /// Parses `bytes`, the file's lines after line `after`.
-    fn parse(bytes: &[u8], after: usize, layout: Layout<'_>) -> Piece {
-        let mut piece = Piece::default();
-        if let Err(e) = piece.parse_rows(bytes, after, layout) {
-            piece.error = Some(e);
-        }
-        piece
+    /// Parses `bytes`, the file's lines after line `after`, in place of what it held.
+    fn parse(&mut self, bytes: &[u8], after: usize, layout: Layout<'_>) {
+        self.rows.clear();
+        self.labels.clear();
+        self.label_ends.clear();
+        self.error = self.parse_rows(bytes, after, layout).err();
     }
 
     fn parse_rows(
@@ -84,7 +84,7 @@ impl Piece {
 
     /// Appends the rows in order, then reports the piece's error if it has one.
     fn append(
-        self,
+        &mut self,
         samples: &mut Samples<'_>,
         segments: &mut SegmentRuns,
     ) -> Result<(), ReadError> {
@@ -95,16 +95,18 @@ impl Piece {
                 segments.push(&self.labels[start..end]);
             }
         }
-        self.error.map_or(Ok(()), Err)
+        self.error.take().map_or(Ok(()), Err)
     }
 }
 
 /// Parses `block` (whole lines, the file's lines after line `after`) in parallel pieces
-/// and appends its rows in file order; returns the number of its last line.
+/// (`parsed` holds them) and appends its rows in file order; returns the number of its
+/// last line.
 fn read_block(
     block: &[u8],
     after: usize,
     layout: Layout<'_>,
+    parsed: &mut [Piece; PIECES],
     samples: &mut Samples<'_>,
     segments: &mut SegmentRuns,
 ) -> Result<usize, ReadError> {
@@ -121,10 +123,11 @@ fn read_block(
         line += block[start..end].iter().filter(|&&b| b == b'\n').count();
         start = end;
     }
-    let parsed: Vec<Piece> = pieces
-        .into_par_iter()
-        .map(|(bytes, after)| Piece::parse(bytes, after, layout))
-        .collect();
+    let parsed = &mut parsed[..pieces.len()];
+    parsed
+        .par_iter_mut()
+        .zip(pieces)
+        .for_each(|(piece, (bytes, after))| piece.parse(bytes, after, layout));
     for piece in parsed {
         piece.append(samples, segments)?;
     }
@@ -160,6 +163,7 @@ pub(crate) fn read(input: impl BufRead, path: &Path, expected: usize) -> Result<
     let (mut input, mut line) = rows.into_parts();
     let mut block = Vec::with_capacity(BLOCK_BYTES);
     let mut carry = Vec::new();
+    let mut parsed: [Piece; PIECES] = Default::default();
     loop {
         block.clear();
         block.append(&mut carry);
@@ -183,7 +187,14 @@ pub(crate) fn read(input: impl BufRead, path: &Path, expected: usize) -> Result<
             let whole = block.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
             block.truncate(whole);
         }
-        line = read_block(&block, line, layout, &mut samples, &mut segments)?;
+        line = read_block(
+            &block,
+            line,
+            layout,
+            &mut parsed,
+            &mut samples,
+            &mut segments,
+        )?;
         if end_of_input {
             read.map_err(io)?;
             break;
