@@ -180,6 +180,25 @@ pub fn first_order_hold<T: Real>(a: T, t: T) -> (T, T, T) {
     (T::ONE - one_minus_e, one_minus_e, g1_over_t)
 }
 
+/// Coefficients of [`relaxing_step`] for a mode of rate ν \[1/s\] > 0 over a sample
+/// T \[s\] > 0: (1 − e^{−νT}, (1 − e^{−νT})/(νT)), from [`first_order_hold`].
+pub fn relaxation_coefficients<T: Real>(rate_per_s: T, sample_time_s: T) -> (T, T) {
+    let (_, one_minus_e, _) = first_order_hold(rate_per_s, sample_time_s);
+    (one_minus_e, one_minus_e / (rate_per_s * sample_time_s))
+}
+
+/// One sample of a relaxing state z' = −ν·z + dF_e/dt (one mode of the reduced relaxation
+/// function, QLV eqs. 9-10; the relaxing force is c·z), exact for F_e linear over the
+/// sample: z1 = z0 + ((1 − e^{−νT})/(νT)·ΔF_e − (1 − e^{−νT})·z0), with
+/// (`one_minus_decay`, `gain`) from [`relaxation_coefficients`] and ΔF_e \[N\] the change
+/// of the elastic force over the sample. Storing 1 − e^{−νT} (not e^{−νT}) keeps a slow
+/// pole exact in f32. The QLV model, the hidden-effect plant and the host's batch fits
+/// all step their relaxation modes here.
+#[inline]
+pub fn relaxing_step<T: Real>(z: T, delta_elastic_n: T, one_minus_decay: T, gain: T) -> T {
+    z + (gain * delta_elastic_n - one_minus_decay * z)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

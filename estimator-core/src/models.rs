@@ -328,12 +328,7 @@ impl<const R: usize> QuasiLinearViscoelastic<R> {
         for i in 0..R {
             sum += non_negative("c", c[i])?;
             positive("nu", nu[i])?;
-            let (_, one_minus_e, _) = foh_coefficients(nu[i], t);
-            // With input rate ΔF_e/T constant over the sample:
-            // z1 = z0 − (1 − e)·z0 + ΔF_e·(1 − e)/(ν·T). Storing 1 − e (not e) keeps a
-            // slow pole exact in f32: e = 0.9999 itself would carry 6e-4 error on ν.
-            one_minus_decay[i] = one_minus_e;
-            gain[i] = one_minus_e / (nu[i] * t);
+            (one_minus_decay[i], gain[i]) = laws::relaxation_coefficients(nu[i], t);
         }
         let c0 = 1.0 - sum;
         if c0 <= 0.0 {
@@ -458,7 +453,7 @@ impl<const R: usize> ContactModel for QuasiLinearViscoelastic<R> {
         self.previous_elastic_n = fe;
         let mut force = self.c0 * fe;
         for i in 0..R {
-            self.z[i] += self.gain[i] * dfe - self.one_minus_decay[i] * self.z[i];
+            self.z[i] = laws::relaxing_step(self.z[i], dfe, self.one_minus_decay[i], self.gain[i]);
             force += self.c[i] * self.z[i];
         }
         force.max(0.0)

@@ -5,6 +5,7 @@
 //! λ·δ^q·δ̇ — plus the mechanical and measurement effects the workflow names. Parameters
 //! are drawn at random from a seed; the workflow only ever sees the log.
 
+use estimator_core::laws;
 use estimator_core::models::{ContactModel, ElasticResponse};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 
@@ -66,11 +67,13 @@ const TAP_END_S: f64 = 0.9;
 /// Coulomb friction, plastic set and a surface that may shift after the first tap.
 struct Material {
     elastic: ElasticResponse,
-    /// Relaxing fraction c and 1 − e^{−νT} of the relaxation mode.
+    /// Relaxing fraction c of the relaxation mode and its [`laws::relaxing_step`]
+    /// coefficients at ν.
     relaxed_fraction: f32,
-    relaxation_alpha: f32,
-    /// The relaxing memory: F_e low-pass filtered at ν.
-    memory: f32,
+    relaxation: (f32, f32),
+    /// The relaxing state z (z' = −ν·z + dF_e/dt) and the last F_e.
+    relaxing: f32,
+    previous_elastic_n: f32,
     lambda: f32,
     q: f32,
     mass: f32,
@@ -97,13 +100,20 @@ impl ContactModel for Material {
         let depth = depth_m - surface;
         self.deepest = self.deepest.max(depth);
         let effective = depth - self.plastic * self.deepest.max(0.0);
-        // QLV with one mode (eqs. 9-10): F = F_e − c·ν∫e^{−ν(t−τ)}F_e(τ)dτ, the memory
-        // following F_e through separation; only the total force is clipped (the core's
+        // QLV with one mode (eqs. 9-10): F = (1 − c)·F_e + c·z, z' = −ν·z + dF_e/dt, the
+        // state following F_e through separation; only the total force is clipped (the core's
         // QLV clips its own output before damping is added, which no batch model can
         // separate from the damping).
         let fe = self.elastic.force_n(effective);
-        self.memory += self.relaxation_alpha * (fe - self.memory);
-        let elastic = fe - self.relaxed_fraction * self.memory;
+        let (one_minus_decay, gain) = self.relaxation;
+        self.relaxing = laws::relaxing_step(
+            self.relaxing,
+            fe - self.previous_elastic_n,
+            one_minus_decay,
+            gain,
+        );
+        self.previous_elastic_n = fe;
+        let elastic = (1.0 - self.relaxed_fraction) * fe + self.relaxed_fraction * self.relaxing;
         if effective <= 0.0 {
             return 0.0;
         }
@@ -117,7 +127,8 @@ impl ContactModel for Material {
     }
 
     fn reset(&mut self) {
-        self.memory = 0.0;
+        self.relaxing = 0.0;
+        self.previous_elastic_n = 0.0;
         self.deepest = 0.0;
         self.touched = false;
         self.left = false;
@@ -280,8 +291,9 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
     let material = Material {
         elastic,
         relaxed_fraction: truth.relaxed_fraction as f32,
-        relaxation_alpha: -(-truth.rate_per_s * T).exp_m1() as f32,
-        memory: 0.0,
+        relaxation: laws::relaxation_coefficients(truth.rate_per_s.max(1e-9) as f32, T as f32),
+        relaxing: 0.0,
+        previous_elastic_n: 0.0,
         lambda: truth.lambda as f32,
         q: truth.q as f32,
         mass: truth.mass_kg as f32,

@@ -21,7 +21,8 @@ pub enum Column {
     Damping,
     /// The linear spring κδ under an exponential law.
     LinearSpring,
-    /// The relaxing part of the elastic column (a first-order low-pass of it, negated).
+    /// The relaxing part of the elastic column, z − u with z' = −ν·z + du/dt (the core's QLV
+    /// mode, [`estimator_core::laws::relaxing_step`]): its first-order low-pass, negated.
     Relaxing,
     /// δ̈, coefficient the mass.
     Inertia,
@@ -356,15 +357,18 @@ pub(super) fn design(
         material.push(true);
     }
     if has(Effect::Relaxation) {
-        let alpha = -(-nl.nu * data.dt).exp_m1();
-        let mut y = 0.0;
+        // The elastic column's relaxing part, the core's QLV mode stepped by its own law
+        // (exact for the column linear over a sample): u − z, z' = −ν·z + du/dt.
+        let (one_minus_decay, gain) = laws::relaxation_coefficients(nl.nu, data.dt);
+        let (mut z, mut previous) = (0.0, 0.0);
         let lp: Vec<f64> = columns[0]
             .iter()
             .zip(&gate)
             .map(|(u, g)| {
-                y += alpha * (u - y);
+                z = laws::relaxing_step(z, u - previous, one_minus_decay, gain);
+                previous = *u;
                 if *g {
-                    -y
+                    z - u
                 } else {
                     0.0
                 }

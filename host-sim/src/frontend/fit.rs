@@ -160,15 +160,15 @@ fn elastic_shape(family: LawFamily, depth: f64, exponent: f64) -> f64 {
 }
 
 /// The relaxing state of one mode driven by `g` (time order): z' = −ν·z + dg/dt, exact for
-/// g linear within each step (the QLV model's discretisation, [`laws::first_order_hold`]).
+/// g linear within each step (the QLV model's own step, [`laws::relaxing_step`]).
 pub fn relaxing(g: &[f64], time_s: &[f64], rate_per_s: f64) -> Vec<f64> {
     let mut z = 0.0;
     let mut out = Vec::with_capacity(g.len());
     for i in 0..g.len() {
         if i > 0 {
             let dt = (time_s[i] - time_s[i - 1]).max(f64::MIN_POSITIVE);
-            let (decay, one_minus, _) = laws::first_order_hold(rate_per_s, dt);
-            z = decay * z + (g[i] - g[i - 1]) * one_minus / (rate_per_s * dt);
+            let (one_minus_decay, gain) = laws::relaxation_coefficients(rate_per_s, dt);
+            z = laws::relaxing_step(z, g[i] - g[i - 1], one_minus_decay, gain);
         }
         out.push(z);
     }
