@@ -180,11 +180,18 @@ pub fn first_order_hold<T: Real>(a: T, t: T) -> (T, T, T) {
     (T::ONE - one_minus_e, one_minus_e, g1_over_t)
 }
 
-/// Coefficients of [`relaxing_step`] for a mode of rate ν \[1/s\] > 0 over a sample
-/// T \[s\] > 0: (1 − e^{−νT}, (1 − e^{−νT})/(νT)), from [`first_order_hold`].
+/// Coefficients of [`relaxing_step`] for a mode of rate ν \[1/s\] ≥ 0 over a sample
+/// T \[s\] > 0: (1 − e^{−νT}, (1 − e^{−νT})/(νT)), from [`first_order_hold`]; (0, 1), the
+/// limit, at ν = 0.
 pub fn relaxation_coefficients<T: Real>(rate_per_s: T, sample_time_s: T) -> (T, T) {
     let (_, one_minus_e, _) = first_order_hold(rate_per_s, sample_time_s);
-    (one_minus_e, one_minus_e / (rate_per_s * sample_time_s))
+    // ν = 0 (no relaxation): the limit of the gain is 1 (z follows F_e), not 0/0.
+    let gain = if one_minus_e > T::ZERO {
+        one_minus_e / (rate_per_s * sample_time_s)
+    } else {
+        T::ONE
+    };
+    (one_minus_e, gain)
 }
 
 /// One sample of a relaxing state z' = −ν·z + dF_e/dt (one mode of the reduced relaxation
@@ -214,5 +221,14 @@ mod tests {
         assert!((exponential_law(1e-3f64, 1e-9) - 1e-3).abs() < 1e-15);
         assert!((exponential_law(2e-3f64, 500.0) - (1.0f64.exp() - 1.0) / 500.0).abs() < 1e-15);
         assert_eq!(unilateral(-2.0f64), 0.0);
+    }
+
+    #[test]
+    fn a_mode_of_rate_zero_holds_its_state_and_follows_the_elastic_force() {
+        assert_eq!(relaxation_coefficients(0.0f64, 1e-3), (0.0, 1.0));
+        assert_eq!(relaxation_coefficients(0.0f32, 1e-3), (0.0, 1.0));
+        let (omd, gain) = relaxation_coefficients(2.0f64, 1e-3);
+        assert!((gain - omd / 2e-3).abs() < 1e-15 && gain < 1.0);
+        assert_eq!(relaxing_step(0.5f64, 0.25, 0.0, 1.0), 0.75);
     }
 }

@@ -1,8 +1,9 @@
 //! The effect catalogue of the discrepancy workflow: the physical effects a contact model
 //! may be missing ([`Effect`]), their nonlinear parameters ([`Knob`], searched) and the
 //! parameters a fit reports ([`Param`], SI), with the scales their searches are bounded by.
-//! Each effect's law is the core's own (`estimator_core::laws`), used by
-//! [`super::regressors`].
+//! The material laws (power law, exponential law, the relaxation mode's step) are the
+//! core's own (`estimator_core::laws`), used by [`super::regressors`]; the mechanical
+//! and measurement effects (delay, set, offsets, mass, friction) are built there.
 
 use std::collections::BTreeSet;
 

@@ -28,7 +28,7 @@ pub fn speed_spread_at_depth(data: &Prepared, start: usize) -> f64 {
 
 /// The within-depth-bin spread of `of(δ̇)` relative to its RMS (see
 /// [`rate_spread_at_depth`]).
-pub(super) fn spread_at_depth(data: &Prepared, start: usize, of: impl Fn(f64) -> f64) -> f64 {
+fn spread_at_depth(data: &Prepared, start: usize, of: impl Fn(f64) -> f64) -> f64 {
     let mut samples: Vec<(f64, f64)> = (start..data.len())
         .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0)
         .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))

@@ -27,7 +27,7 @@ pub struct Localisation {
 }
 
 /// Pearson correlation of `a` and `b` shifted by `lag` (b leads for positive lags).
-pub(super) fn correlation(a: &[f64], b: &[f64], lag: i32) -> f64 {
+fn correlation(a: &[f64], b: &[f64], lag: i32) -> f64 {
     let n = a.len().min(b.len());
     let (mut sa, mut sb, mut sab, mut saa, mut sbb, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for (i, &x) in a.iter().enumerate().take(n) {
@@ -58,7 +58,7 @@ pub(super) fn correlation(a: &[f64], b: &[f64], lag: i32) -> f64 {
 
 /// The signature of each candidate: the signal its extra term adds to a linear model
 /// (the derivative of the force with respect to its parameter at the "no effect" value).
-pub(super) fn signatures(data: &Prepared, start: usize) -> Vec<(String, Vec<f64>)> {
+fn signatures(data: &Prepared, start: usize) -> Vec<(String, Vec<f64>)> {
     let d = &data.depth_m[start..];
     let v = &data.rate_m_per_s[start..];
     let a = &data.accel_m_per_s2[start..];

@@ -38,7 +38,7 @@ impl Column {
     /// Whether the coefficient is non-negative physically: the elastic and the damping
     /// coefficient of a passive material (κ, k, m ≥ 0 and λ ≥ 0 at every step, the
     /// baseline included), a mass and a friction force's magnitude.
-    pub fn non_negative(self) -> bool {
+    pub(super) fn non_negative(self) -> bool {
         matches!(
             self,
             Column::Elastic
@@ -76,7 +76,7 @@ impl Design {
 }
 
 /// Linear interpolation of `v` at fractional index `x`.
-pub(super) fn interp(v: &[f64], x: f64) -> f64 {
+fn interp(v: &[f64], x: f64) -> f64 {
     if x <= 0.0 {
         return v[0];
     }
@@ -358,7 +358,7 @@ pub(super) fn design(
     }
     if has(Effect::Relaxation) {
         // The elastic column's relaxing part, the core's QLV mode stepped by its own law
-        // (exact for the column linear over a sample): u − z, z' = −ν·z + du/dt.
+        // (exact for the column linear over a sample): z − u, z' = −ν·z + du/dt.
         let (one_minus_decay, gain) = laws::relaxation_coefficients(nl.nu, data.dt);
         let (mut z, mut previous) = (0.0, 0.0);
         let lp: Vec<f64> = columns[0]

@@ -23,7 +23,7 @@ pub(super) struct Solve {
 }
 
 /// Most regression columns of any model.
-pub(super) const MAX_COLUMNS: usize = 8;
+const MAX_COLUMNS: usize = 8;
 
 /// Least squares on columns scaled to unit RMS (normal equations, Cholesky with a tiny
 /// ridge for rank-deficient columns such as an all-zero effect), with the
@@ -211,7 +211,7 @@ impl Fit {
 /// found by iteration, starting from the samples whose measured force is within 3 noise
 /// levels of zero, then re-derived from the model's own unclipped prediction each time.
 /// Returns (RSS, design with the clipped rows zeroed, solve, clipped mask).
-pub(super) fn evaluate(
+fn evaluate(
     data: &Prepared,
     start: usize,
     effects: &BTreeSet<Effect>,
@@ -318,11 +318,11 @@ impl Effort {
 }
 
 /// Intervals of the grid over the contact position's range after a fit (see [`fit`]).
-pub(super) const CONTACT_GRID: usize = 16;
+const CONTACT_GRID: usize = 16;
 
 /// The nonlinear least-squares problem of one model: knobs mapped to [0, 1] (log scale
 /// where the range spans decades), residuals from the variable projection.
-pub(super) struct Problem<'a> {
+struct Problem<'a> {
     data: &'a Prepared,
     start: usize,
     effects: &'a BTreeSet<Effect>,
@@ -667,7 +667,7 @@ pub fn fit(
 
 /// SI values and standard errors of a fit's parameters.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn name_parameters(
+fn name_parameters(
     effects: &BTreeSet<Effect>,
     nl: &Nonlinear,
     design: &Design,
@@ -759,7 +759,7 @@ pub(super) fn name_parameters(
 /// Standard error of a nonlinear parameter from the curvature of the RSS at the
 /// optimum: var ≈ 2σ²/RSS'' (the linear coefficients re-solved at each point).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn nonlinear_se(
+fn nonlinear_se(
     uncertainties: bool,
     data: &Prepared,
     start: usize,

@@ -14,7 +14,7 @@
 //!
 //! where R_ν\[g\] is the relaxing part of the convolution (9) with one mode e^{−ν·t}: the state
 //! z' = −ν·z + dg/dt, stepped exactly for g linear over each step
-//! ([`estimator_core::laws::first_order_hold`]). The nonlinear parameters are found by a
+//! ([`estimator_core::laws::relaxing_step`]). The nonlinear parameters are found by a
 //! grid over u_c with golden-section searches over n and ν, then refined around the
 //! grid's best minima (Brent's method, argmin's `BrentOpt`, over u_c and n). For the memoryless
 //! laws, points where the fitted law is negative while δ > 0 (the probe retracting faster

@@ -5,7 +5,7 @@
 //!
 //! Streamed in blocks of [`BLOCK_BYTES`]: the rows of a block are parsed in parallel
 //! pieces cut at line breaks, then checked and appended in file order (a 600 s, 1 kHz log
-//! is read in the memory of its three columns and one block).
+//! is read in the memory of its three columns, one block and the block's parsed rows).
 
 use std::io::{BufRead, Read};
 use std::path::Path;
