@@ -186,7 +186,7 @@ pub fn first_order_hold<T: Real>(a: T, t: T) -> (T, T, T) {
 pub fn relaxation_coefficients<T: Real>(rate_per_s: T, sample_time_s: T) -> (T, T) {
     let (_, one_minus_e, _) = first_order_hold(rate_per_s, sample_time_s);
     // ν = 0 (no relaxation): the limit of the gain is 1 (z follows F_e), not 0/0.
-    let gain = if one_minus_e > T::ZERO {
+    let gain = if one_minus_e != T::ZERO {
         one_minus_e / (rate_per_s * sample_time_s)
     } else {
         T::ONE
