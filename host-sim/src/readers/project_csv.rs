@@ -136,6 +136,17 @@ fn read_block(
 
 /// `expected`: the expected number of samples, to size the columns (0: unknown).
 pub(crate) fn read(input: impl BufRead, path: &Path, expected: usize) -> Result<Record, ReadError> {
+    read_in_blocks(input, path, expected, BLOCK_BYTES)
+}
+
+/// [`read`] in blocks of `block_bytes` (a parameter so that tests can cross block edges
+/// with small inputs).
+fn read_in_blocks(
+    input: impl BufRead,
+    path: &Path,
+    expected: usize,
+    block_bytes: usize,
+) -> Result<Record, ReadError> {
     let io = |e| ReadError::file(path, ReadErrorKind::Io(e));
     let mut rows = CsvLines::new(input);
     // Only comments and blank lines: report the missing header.
@@ -161,13 +172,13 @@ pub(crate) fn read(input: impl BufRead, path: &Path, expected: usize) -> Result<
     samples.reserve(expected);
     let mut segments = SegmentRuns::default();
     let (mut input, mut line) = rows.into_parts();
-    let mut block = Vec::with_capacity(BLOCK_BYTES);
+    let mut block = Vec::with_capacity(block_bytes);
     let mut carry = Vec::new();
     let mut parsed: [Piece; PIECES] = Default::default();
     loop {
         block.clear();
         block.append(&mut carry);
-        let wanted = BLOCK_BYTES as u64;
+        let wanted = block_bytes as u64;
         let read = (&mut input).take(wanted).read_to_end(&mut block);
         let end_of_input = !matches!(read, Ok(n) if n as u64 == wanted);
         if !end_of_input {
@@ -281,5 +292,74 @@ mod tests {
             let error = read(text.as_bytes(), Path::new("log.csv"), 0).unwrap_err();
             assert!(error.to_string().starts_with(message), "{error}");
         }
+    }
+
+    /// Every block size, from smaller than one line to the whole file, reads the same
+    /// rows, line numbers and segments as one block: CRLF line ends cut at any byte, a
+    /// line longer than a block, no line break at the end.
+    #[test]
+    fn any_block_size_reads_the_same_record() {
+        let mut text = log(300).replace('\n', "\r\n");
+        text.push_str("0.3,3e-4,600,b");
+        let whole = read_in_blocks(text.as_bytes(), Path::new("log.csv"), 0, 1 << 20).unwrap();
+        assert_eq!(whole.len(), 301);
+        for block_bytes in [1, 7, 20, 64, 1000] {
+            let record =
+                read_in_blocks(text.as_bytes(), Path::new("log.csv"), 0, block_bytes).unwrap();
+            assert_eq!(record.time_s, whole.time_s, "{block_bytes}");
+            assert_eq!(record.position_m, whole.position_m, "{block_bytes}");
+            assert_eq!(record.force_n, whole.force_n, "{block_bytes}");
+            assert_eq!(record.segments, whole.segments, "{block_bytes}");
+        }
+        let bad = text.replacen("\r\n250e-3,", "\r\n250e-3x,", 1);
+        for block_bytes in [7, 64, 1 << 20] {
+            let error = read_in_blocks(bad.as_bytes(), Path::new("log.csv"), 0, block_bytes)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                error.starts_with("log.csv:255: field `time_s`"),
+                "{block_bytes}: {error}"
+            );
+        }
+    }
+
+    /// A reader that fails part-way: the whole lines before the failure are checked
+    /// first (a bad row there is reported as such), then the I/O error is reported.
+    #[test]
+    fn a_read_failing_mid_file_reports_the_io_error_after_the_rows_before_it() {
+        struct Failing<'a>(&'a [u8]);
+        impl std::io::Read for Failing<'_> {
+            fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+                if self.0.is_empty() {
+                    return Err(std::io::Error::other("disk gone"));
+                }
+                let n = out.len().min(self.0.len());
+                out[..n].copy_from_slice(&self.0[..n]);
+                self.0 = &self.0[n..];
+                Ok(n)
+            }
+        }
+        let text = log(100);
+        let cut = &text.as_bytes()[..text.len() / 2];
+        let error = read_in_blocks(
+            std::io::BufReader::new(Failing(cut)),
+            Path::new("log.csv"),
+            0,
+            64,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(error.contains("disk gone"), "{error}");
+        let bad = text.replacen("\n10e-3,", "\n10e-3x,", 1);
+        let cut = &bad.as_bytes()[..bad.len() / 2];
+        let error = read_in_blocks(
+            std::io::BufReader::new(Failing(cut)),
+            Path::new("log.csv"),
+            0,
+            64,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(error.starts_with("log.csv:13: field `time_s`"), "{error}");
     }
 }
