@@ -339,27 +339,17 @@ mod tests {
                 Ok(n)
             }
         }
+        // The error of reading the first half of `text`, then failing.
+        let read_half = |text: &str| {
+            let half = Failing(&text.as_bytes()[..text.len() / 2]);
+            read_in_blocks(std::io::BufReader::new(half), Path::new("log.csv"), 0, 64)
+                .unwrap_err()
+                .to_string()
+        };
         let text = log(100);
-        let cut = &text.as_bytes()[..text.len() / 2];
-        let error = read_in_blocks(
-            std::io::BufReader::new(Failing(cut)),
-            Path::new("log.csv"),
-            0,
-            64,
-        )
-        .unwrap_err()
-        .to_string();
+        let error = read_half(&text);
         assert!(error.contains("disk gone"), "{error}");
-        let bad = text.replacen("\n10e-3,", "\n10e-3x,", 1);
-        let cut = &bad.as_bytes()[..bad.len() / 2];
-        let error = read_in_blocks(
-            std::io::BufReader::new(Failing(cut)),
-            Path::new("log.csv"),
-            0,
-            64,
-        )
-        .unwrap_err()
-        .to_string();
+        let error = read_half(&text.replacen("\n10e-3,", "\n10e-3x,", 1));
         assert!(error.starts_with("log.csv:13: field `time_s`"), "{error}");
     }
 }
