@@ -62,16 +62,24 @@ pub(super) struct Design {
 }
 
 impl Design {
-    /// Σ β_j·column_j at sample `i` over the material columns (`material`) or the
-    /// others.
-    pub(super) fn sum_at(&self, beta: &[f64], i: usize, material: bool) -> f64 {
-        self.columns
+    /// Σ β_j·column_j at every sample over the material columns (`material`) or the
+    /// others, summed column by column (contiguous, in column order from −0, as an
+    /// iterator's `sum` per sample would).
+    pub(super) fn sums(&self, beta: &[f64], material: bool) -> Vec<f64> {
+        let n = self.gate.len();
+        let mut total = vec![-0.0; n];
+        for ((c, b), _) in self
+            .columns
             .iter()
             .zip(beta)
             .zip(&self.material)
             .filter(|(_, m)| **m == material)
-            .map(|((c, b), _)| c[i] * b)
-            .sum()
+        {
+            for (t, v) in total.iter_mut().zip(c) {
+                *t += v * b;
+            }
+        }
+        total
     }
 }
 
@@ -297,6 +305,10 @@ pub(super) fn design(
             for j in 0..block {
                 let raw = ((start + i) * block + j) as f64 - shift * block as f64;
                 let dj = interp(&data.raw_depth_m, raw) - reference;
+                if dj <= 0.0 {
+                    // Out of contact every term is 0 (adding +0 changes no sum).
+                    continue;
+                }
                 let vj = interp(&data.rate_m_per_s, (raw - half) / block as f64);
                 let t = terms(dj, vj);
                 sum = (
@@ -440,10 +452,11 @@ pub fn predict(
     let full = design(&free, start, effects, nl, &scale);
     let n = data.len() - start;
     let beta: Vec<f64> = full.names.iter().map(|c| coefficient(*c)).collect();
-    let m: Vec<f64> = (0..n).map(|i| full.sum_at(&beta, i, true)).collect();
+    let m = full.sums(&beta, true);
+    let others = full.sums(&beta, false);
     let block = data.block.max(1);
     (0..n)
-        .map(|i| touch_weight(&full, &m, i, block) * m[i] + full.sum_at(&beta, i, false))
+        .map(|i| touch_weight(&full, &m, i, block) * m[i] + others[i])
         .collect()
 }
 

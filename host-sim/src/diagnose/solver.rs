@@ -247,7 +247,7 @@ fn evaluate(
     let mut result = None;
     for _ in 0..iterations.max(1) {
         let s = least_squares(&full, y, None, &touch)?;
-        let m: Vec<f64> = (0..n).map(|i| full.sum_at(&s.beta, i, true)).collect();
+        let m = full.sums(&s.beta, true);
         let next: Vec<f64> = (0..n).map(|i| touch_weight(&full, &m, i, block)).collect();
         let done = next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
         result = Some((s.rss, s, touch));

@@ -193,6 +193,23 @@ pub struct Problem<'a> {
     f: Vec<f64>,
     v: Vec<f64>,
     t: Vec<f64>,
+    /// The normal equations' sums that no column enters ([`Problem::normal_sums`]'s Σ1,
+    /// Σy, Σy²), the same at every evaluation.
+    y_sums: [f64; 3],
+}
+
+/// Σ1, Σy and Σy² over the points, y = f − the fixed offset (scaled), the ones counted
+/// only with a free offset; summed in point order, as [`Problem::normal_sums`] did.
+fn y_sums(f: &[f64], fixed: Option<f64>) -> [f64; 3] {
+    let one = if fixed.is_some() { 0.0 } else { 1.0 };
+    let mut s = [0.0; 3];
+    for fi in f {
+        let y = fi - fixed.unwrap_or(0.0);
+        s[0] += one;
+        s[1] += one * y;
+        s[2] += y * y;
+    }
+    s
 }
 
 /// Exponent search range.
@@ -264,6 +281,11 @@ impl<'a> Problem<'a> {
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE)
             / length;
+        let f: Vec<f64> = series.force_n.iter().map(|f| f / force).collect();
+        let fixed = match offset {
+            OffsetTerm::Free => None,
+            OffsetTerm::Fixed(f0) => Some(f0 / force),
+        };
         Problem {
             series,
             sign,
@@ -274,7 +296,8 @@ impl<'a> Problem<'a> {
             force,
             rate,
             u: x.iter().map(|x| sign * x / length).collect(),
-            f: series.force_n.iter().map(|f| f / force).collect(),
+            y_sums: y_sums(&f, fixed),
+            f,
             v: series
                 .rate_m_per_s
                 .iter()
@@ -375,19 +398,22 @@ impl<'a> Problem<'a> {
         let fixed = self.fixed_offset();
         let one = if fixed.is_some() { 0.0 } else { 1.0 };
         let mut s = [0.0; 10];
+        [s[0], s[6], s[9]] = self.y_sums;
         for i in 0..g.len() {
+            let (gi, hi) = (g[i], h[i]);
+            // A point with both columns 0 (out of contact, or free) adds ±0 to these
+            // sums, which changes none of them: skipped.
+            if (gi == 0.0 && hi == 0.0) || free(i) {
+                continue;
+            }
             let y = self.f[i] - fixed.unwrap_or(0.0);
-            let (gi, hi) = if free(i) { (0.0, 0.0) } else { (g[i], h[i]) };
-            s[0] += one;
             s[1] += one * gi;
             s[2] += one * hi;
             s[3] += gi * gi;
             s[4] += gi * hi;
             s[5] += hi * hi;
-            s[6] += one * y;
             s[7] += gi * y;
             s[8] += hi * y;
-            s[9] += y * y;
         }
         s
     }
@@ -498,6 +524,7 @@ impl<'a> Problem<'a> {
     /// The same problem on every `stride`-th point (a coarse view for the grid search).
     fn thinned(&self, stride: usize) -> Problem<'a> {
         let pick = |v: &[f64]| v.iter().step_by(stride).copied().collect();
+        let f: Vec<f64> = pick(&self.f);
         Problem {
             series: self.series,
             sign: self.sign,
@@ -508,7 +535,8 @@ impl<'a> Problem<'a> {
             force: self.force,
             rate: self.rate,
             u: pick(&self.u),
-            f: pick(&self.f),
+            y_sums: y_sums(&f, self.fixed_offset()),
+            f,
             v: pick(&self.v),
             t: pick(&self.t),
         }
