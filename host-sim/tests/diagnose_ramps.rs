@@ -18,20 +18,41 @@ use rand_distr::StandardNormal;
 /// F = k·δⁿ with k = 2e6 N/m^n, approached from 1 mm out at 1 mm/s, loaded to 3 mm,
 /// optionally unloaded back out; 1 kHz; white noise of `noise_n`.
 fn ramp(dir: &Path, name: &str, n: f64, noise_n: f64, unload: bool, seed: u64) -> Diagnosis {
-    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let (v, dt) = (1e-3, 1e-3);
     let mut x: Vec<f64> = (0..4000).map(|i| -1e-3 + v * dt * i as f64).collect();
     if unload {
         let back: Vec<f64> = x.iter().rev().copied().collect();
         x.extend(back);
     }
+    let force: Vec<f64> = x.iter().map(|xi| 2e6 * xi.max(0.0).powf(n)).collect();
+    diagnose_record(dir, name, &x, &force, noise_n, seed)
+}
+
+/// Writes positions `x` \[m\] and forces `force` \[N\] at 1 kHz with white noise of
+/// `noise_n` added to the force, and diagnoses the file from Kelvin-Voigt.
+fn diagnose_record(
+    dir: &Path,
+    name: &str,
+    x: &[f64],
+    force: &[f64],
+    noise_n: f64,
+    seed: u64,
+) -> Diagnosis {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let dt = 1e-3;
     let path = dir.join(name);
     let mut f = std::fs::File::create(&path).expect("create");
     writeln!(f, "time_s,position_m,force_n").expect("write");
-    for (i, xi) in x.iter().enumerate() {
+    for (i, (xi, fi)) in x.iter().zip(force).enumerate() {
         let e: f64 = rng.sample(StandardNormal);
-        let force = 2e6 * xi.max(0.0).powf(n) + noise_n * e;
-        writeln!(f, "{:.6},{:.9e},{:.9e}", i as f64 * dt, xi, force).expect("write");
+        writeln!(
+            f,
+            "{:.6},{:.9e},{:.9e}",
+            i as f64 * dt,
+            xi,
+            fi + noise_n * e
+        )
+        .expect("write");
     }
     drop(f);
     diagnose_file(
@@ -98,4 +119,48 @@ fn load_unload_ramp_tries_damping_and_still_names_the_power_law() {
         "n = {}",
         exponent(&d)
     );
+}
+
+/// A Kelvin-Voigt material (κ = 2e4 N/m, λ = 2e3 N·s/m) loaded at 1 mm/s: its damping is
+/// the step λv = 2 N where the contact begins, which no elastic law makes. From free space
+/// the record shows that step, so the baseline's damping is fitted and nothing is added
+/// (the damping held at 0, a power law with n < 1 would take up the step); starting in
+/// contact, the step is the tare's and the damping is held.
+#[test]
+fn kelvin_voigt_ramp_from_free_space_fits_the_onset_step_as_damping() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (kappa, lambda, v, dt) = (2e4, 2e3, 1e-3, 1e-3);
+    let kv = |x: &[f64]| -> Vec<f64> {
+        x.iter()
+            .map(|&xi| {
+                if xi > 0.0 {
+                    kappa * xi + lambda * v
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    };
+    for seed in [11, 12, 13] {
+        let x: Vec<f64> = (0..4000).map(|i| -1e-3 + v * dt * i as f64).collect();
+        let name = format!("kv-from-free-space-{seed}.csv");
+        let d = diagnose_record(dir.path(), &name, &x, &kv(&x), 0.05, seed);
+        assert!(d.effects_added().is_empty(), "{name}: {}", d.final_model());
+        assert!(!d.damping_held, "{name}");
+        let fitted = d.final_fit.parameter(Param::Lambda).expect("λ");
+        assert!(
+            (fitted / lambda - 1.0).abs() < 0.1,
+            "{name}: λ = {fitted:.4e} against {lambda:.4e}"
+        );
+        let stiffness = d.final_fit.parameter(Param::Kappa).expect("κ");
+        assert!(
+            (stiffness / kappa - 1.0).abs() < 0.05,
+            "{name}: κ = {stiffness:.4e} against {kappa:.4e}"
+        );
+    }
+    // The same material pressed from 0.5 mm in contact on: no onset, no step.
+    let x: Vec<f64> = (0..3000).map(|i| 0.5e-3 + v * dt * i as f64).collect();
+    let d = diagnose_record(dir.path(), "kv-in-contact.csv", &x, &kv(&x), 0.05, 14);
+    assert!(d.damping_held, "{}", d.final_model());
+    assert_eq!(d.final_fit.parameter(Param::Lambda), Some(0.0));
 }

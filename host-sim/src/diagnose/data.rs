@@ -66,7 +66,8 @@ pub struct Prepared {
     pub first_contact_end: usize,
     /// The linear damping coefficient is held at 0 in every model (set by the workflow
     /// when the record passes each depth at one speed, where λ·δ̇ is indistinguishable
-    /// from the elastic law and the tare).
+    /// from the elastic law and the tare but for its step λv at a contact onset from free
+    /// space: see `Diagnosis::damping_held`).
     pub hold_damping: bool,
     /// The whole-record front end could not determine the force offset (the record
     /// never leaves contact). On a record that is also a one-speed loading curve, the

@@ -84,9 +84,14 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
             "the record has one contact: a shifted contact point for the later contacts has nothing to act on (the contact point itself is refined in every model)",
             "a lift-off and a second contact",
         )
+    } else if e.is_rate_effect() && d.damping_held {
+        (
+            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0: its one trace, the step λv at a contact onset from free space, is absent or not significant)",
+            separating_motion(Effect::PowerLawStiffness, e),
+        )
     } else if e.is_rate_effect() {
         (
-            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0)",
+            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept; the linear damping is fitted from its step λv at the contact onset)",
             separating_motion(Effect::PowerLawStiffness, e),
         )
     } else {

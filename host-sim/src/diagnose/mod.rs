@@ -26,6 +26,13 @@
 //! [`Effect::precedence`]), and the step lists the others with the motion that would
 //! separate them ([`separating_motion`]).
 //!
+//! A record that passes each depth at one speed (a loading ramp) cannot identify a rate
+//! effect: damping, delay, inertia and friction are not tried. The baseline's own linear
+//! damping λ·δ̇ is held at 0 there, except on a record whose contact begins from free
+//! space: λ·δ̇ is then the step λv at the onset, which no elastic law makes, and the
+//! workflow runs with the damping free and held and keeps the free reading only if its
+//! BIC falls by the acceptance threshold ([`Diagnosis::damping_held`]).
+//!
 //! The loop stops when no candidate passes, or after [`Options::max_steps`]. Then the
 //! **backward check**: every added effect must still pass the same rule against the
 //! final model without it (an effect added later can take over an earlier one's role: a
@@ -218,6 +225,11 @@ pub struct Diagnosis {
     /// force offset that trades against the contact point; a later contact point with one
     /// contact).
     pub unidentifiable: Vec<Effect>,
+    /// The baseline's linear damping is held at 0 in every model: the record passes each
+    /// depth at one speed, and either starts in contact (λ·δ̇ is then indistinguishable
+    /// from the tare) or its contact onset's step λv did not pass the acceptance rule's
+    /// BIC drop against the elastic reading ([`diagnose`] fits both).
+    pub damping_held: bool,
 }
 
 impl Diagnosis {
@@ -257,11 +269,11 @@ impl Diagnosis {
 /// ([`baseline_effects`]) or cannot be fitted (no contact samples).
 pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let baseline = baseline_effects(options.baseline)?;
-    let mut effects = baseline.clone();
     let duration_s = data.dt * (data.len() - data.fit_start()) as f64;
     let noise_fraction = noise_sample_fraction(data);
     // Rate effects on a record that passes each depth at one speed are elastic laws in
-    // disguise: not tried, listed, and the baseline's own damping held at 0.
+    // disguise: not tried, listed, and the baseline's own damping held at 0 (unless the
+    // record shows it as the step at a contact onset, below).
     let rate_spread = rate_spread_at_depth(data, data.fit_start());
     let one_speed = rate_spread < RATE_SPREAD_MIN;
     // Passed at one speed each way (loading and unloading): a sign law is ±λv, and δ̈
@@ -285,201 +297,232 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             _ => one_speed && e.is_rate_effect(),
         })
         .collect();
-    let held;
-    let data = if one_speed {
-        held = Prepared {
-            hold_damping: true,
-            hold_tare,
-            ..data.clone()
-        };
-        &held
-    } else {
-        data
-    };
-    let baseline_fit = fit(
-        data,
-        &effects,
-        &Nonlinear::default(),
-        &knobs_of(&effects),
-        Effort::FULL,
-    )?;
-    let mut current = baseline_fit.clone();
-    let mut steps = Vec::new();
-    let mut final_candidates = Vec::new();
-    for _ in 0..options.max_steps {
-        // Every absent effect; one that replaces the same model piece as a present one
-        // (power law ↔ exponential) is tried as a swap: an early choice made while
-        // another effect was still missing can be revised.
-        let untried: Vec<(Effect, Option<Effect>)> = Effect::ALL
-            .into_iter()
-            .filter(|e| !effects.contains(e) && !unidentifiable.contains(e))
-            .map(|e| (e, effects.iter().copied().find(|p| p.conflicts_with(e))))
-            .collect();
-        // Candidates are independent fits: one per core. All are screened with a quick
-        // fit; the best few by RSS are fitted fully, and only those can be accepted.
-        let set = |e: Effect, replaces: Option<Effect>| {
-            let mut with = effects.clone();
-            if let Some(p) = replaces {
-                with.remove(&p);
-            }
-            with.insert(e);
-            with
-        };
-        let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
-        let fit_one =
-            |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
-                // On a record with one contact (a compression test), a model with the
-                // exponential law is screened with the law alone and on the linear
-                // spring, at every step; the spring is one more parameter and is kept
-                // only if it passes the rule an effect passes against the law alone. The
-                // refinement keeps the screened variant. Where later contacts can show a
-                // shifted contact point, the spring is not offered: near the contact it
-                // has the same signature as the shift (on the project's sweep it took the
-                // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
-                let with = set(e, replaces);
-                let knobs: Vec<_> = e.knob().into_iter().collect();
-                let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
-                let fit = if with.contains(&Effect::ExponentialStiffness)
-                    && effort == Effort::QUICK
-                    && one_contact
-                {
-                    let variant = |linear_spring| Nonlinear {
-                        linear_spring,
-                        ..*from
-                    };
-                    match (fit_from(&variant(false)), fit_from(&variant(true))) {
-                        (Some(alone), Some(spring)) => {
-                            let keeps = score(
-                                Effect::ExponentialStiffness,
-                                None,
-                                spring.clone(),
-                                &alone,
-                                options,
-                                duration_s,
-                                noise_fraction,
-                            )
-                            .significant;
-                            if keeps {
-                                spring
-                            } else {
-                                alone
-                            }
-                        }
-                        (alone, spring) => alone.or(spring)?,
-                    }
-                } else {
-                    fit_from(from)?
-                };
-                Some(score(
-                    e,
-                    replaces,
-                    fit,
-                    &current,
-                    options,
-                    duration_s,
-                    noise_fraction,
-                ))
+    // The baseline's linear damping λ·δ̇ on a one-speed record is the step λv where the
+    // contact begins: an elastic law starts at 0 there, so a contact that begins from
+    // free space inside the fit window identifies it (a material without damping fits
+    // λ = 0). Only a record that starts in contact (no onset, no free space) holds it at
+    // 0, where the step is the tare's.
+    let onset_from_free_space = !data.offset_unidentified && !data.contact[data.fit_start()];
+    let run = |damping_held: bool| -> Option<Diagnosis> {
+        let mut effects = baseline.clone();
+        let held;
+        let data = if one_speed {
+            held = Prepared {
+                hold_damping: damping_held,
+                hold_tare,
+                ..data.clone()
             };
-        let mut screened: Vec<Candidate> = untried
-            .into_par_iter()
-            .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))
-            .collect();
-        screened.sort_by(|a, b| a.fit.rss.total_cmp(&b.fit.rss));
-        let rest = screened.split_off(SHORTLIST.min(screened.len()));
-        let mut candidates: Vec<Candidate> = screened
-            .into_par_iter()
-            .map(|c| {
-                fit_one((c.effect, c.replaces), &c.fit.nonlinear, Effort::REFINE)
-                    .filter(|r| r.fit.rss <= c.fit.rss)
-                    .unwrap_or(c)
-            })
-            .collect();
-        candidates.extend(rest.into_iter().map(|mut c| {
-            c.significant = false;
-            c
-        }));
-        candidates.sort_by(|a, b| a.fit.cv_rmse.total_cmp(&b.fit.cv_rmse));
-        let Some((best, indistinguishable_from)) =
-            choose(data, &candidates, options, noise_fraction)
-        else {
-            final_candidates = candidates;
-            break;
+            &held
+        } else {
+            data
         };
-        if let Some(p) = best.replaces {
-            effects.remove(&p);
+        let baseline_fit = fit(
+            data,
+            &effects,
+            &Nonlinear::default(),
+            &knobs_of(&effects),
+            Effort::FULL,
+        )?;
+        let mut current = baseline_fit.clone();
+        let mut steps = Vec::new();
+        let mut final_candidates = Vec::new();
+        for _ in 0..options.max_steps {
+            // Every absent effect; one that replaces the same model piece as a present one
+            // (power law ↔ exponential) is tried as a swap: an early choice made while
+            // another effect was still missing can be revised.
+            let untried: Vec<(Effect, Option<Effect>)> = Effect::ALL
+                .into_iter()
+                .filter(|e| !effects.contains(e) && !unidentifiable.contains(e))
+                .map(|e| (e, effects.iter().copied().find(|p| p.conflicts_with(e))))
+                .collect();
+            // Candidates are independent fits: one per core. All are screened with a quick
+            // fit; the best few by RSS are fitted fully, and only those can be accepted.
+            let set = |e: Effect, replaces: Option<Effect>| {
+                let mut with = effects.clone();
+                if let Some(p) = replaces {
+                    with.remove(&p);
+                }
+                with.insert(e);
+                with
+            };
+            let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
+            let fit_one =
+                |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
+                    // On a record with one contact (a compression test), a model with the
+                    // exponential law is screened with the law alone and on the linear
+                    // spring, at every step; the spring is one more parameter and is kept
+                    // only if it passes the rule an effect passes against the law alone. The
+                    // refinement keeps the screened variant. Where later contacts can show a
+                    // shifted contact point, the spring is not offered: near the contact it
+                    // has the same signature as the shift (on the project's sweep it took the
+                    // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
+                    let with = set(e, replaces);
+                    let knobs: Vec<_> = e.knob().into_iter().collect();
+                    let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
+                    let fit = if with.contains(&Effect::ExponentialStiffness)
+                        && effort == Effort::QUICK
+                        && one_contact
+                    {
+                        let variant = |linear_spring| Nonlinear {
+                            linear_spring,
+                            ..*from
+                        };
+                        match (fit_from(&variant(false)), fit_from(&variant(true))) {
+                            (Some(alone), Some(spring)) => {
+                                let keeps = score(
+                                    Effect::ExponentialStiffness,
+                                    None,
+                                    spring.clone(),
+                                    &alone,
+                                    options,
+                                    duration_s,
+                                    noise_fraction,
+                                )
+                                .significant;
+                                if keeps {
+                                    spring
+                                } else {
+                                    alone
+                                }
+                            }
+                            (alone, spring) => alone.or(spring)?,
+                        }
+                    } else {
+                        fit_from(from)?
+                    };
+                    Some(score(
+                        e,
+                        replaces,
+                        fit,
+                        &current,
+                        options,
+                        duration_s,
+                        noise_fraction,
+                    ))
+                };
+            let mut screened: Vec<Candidate> = untried
+                .into_par_iter()
+                .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))
+                .collect();
+            screened.sort_by(|a, b| a.fit.rss.total_cmp(&b.fit.rss));
+            let rest = screened.split_off(SHORTLIST.min(screened.len()));
+            let mut candidates: Vec<Candidate> = screened
+                .into_par_iter()
+                .map(|c| {
+                    fit_one((c.effect, c.replaces), &c.fit.nonlinear, Effort::REFINE)
+                        .filter(|r| r.fit.rss <= c.fit.rss)
+                        .unwrap_or(c)
+                })
+                .collect();
+            candidates.extend(rest.into_iter().map(|mut c| {
+                c.significant = false;
+                c
+            }));
+            candidates.sort_by(|a, b| a.fit.cv_rmse.total_cmp(&b.fit.cv_rmse));
+            let Some((best, indistinguishable_from)) =
+                choose(data, &candidates, options, noise_fraction)
+            else {
+                final_candidates = candidates;
+                break;
+            };
+            if let Some(p) = best.replaces {
+                effects.remove(&p);
+            }
+            effects.insert(best.effect);
+            // (The candidate's fit already refined every nonlinear parameter jointly.)
+            steps.push(Step {
+                effect: best.effect,
+                indistinguishable_from,
+                replaces: best.replaces,
+                localisation_before: localise(data, &current),
+                localisation_after: localise(data, &best.fit),
+                before: current,
+                after: best.fit.clone(),
+                candidates,
+            });
+            current = best.fit;
         }
-        effects.insert(best.effect);
-        // (The candidate's fit already refined every nonlinear parameter jointly.)
-        steps.push(Step {
-            effect: best.effect,
-            indistinguishable_from,
-            replaces: best.replaces,
-            localisation_before: localise(data, &current),
-            localisation_after: localise(data, &best.fit),
-            before: current,
-            after: best.fit.clone(),
-            candidates,
-        });
-        current = best.fit;
+        // Backward check: an effect added later can take over an earlier one's role (a power
+        // law whose n absorbed a missing mass is n ≈ 1 once the mass is in). Every added
+        // effect must still pass the acceptance rule against the final model without it;
+        // the least needed one that does not is taken out, and the check repeats. (With one
+        // added effect nothing changed since it was accepted against the baseline.)
+        let mut removed = Vec::new();
+        loop {
+            let added: Vec<Effect> = effects
+                .iter()
+                .copied()
+                .filter(|e| !baseline.contains(e))
+                .collect();
+            if added.len() < 2 {
+                break;
+            }
+            let weakest = added
+                .into_par_iter()
+                .filter_map(|e| {
+                    let mut without = effects.clone();
+                    without.remove(&e);
+                    let fit = fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
+                    let kept = score(
+                        e,
+                        None,
+                        current.clone(),
+                        &fit,
+                        options,
+                        duration_s,
+                        noise_fraction,
+                    );
+                    Some((kept, fit))
+                })
+                .filter(|(kept, _)| !kept.significant)
+                .max_by(|a, b| a.0.delta_bic.total_cmp(&b.0.delta_bic));
+            let Some((kept, after)) = weakest else {
+                break;
+            };
+            effects.remove(&kept.effect);
+            current = after.clone();
+            removed.push(Removal {
+                effect: kept.effect,
+                kept,
+                after,
+            });
+        }
+        Some(Diagnosis {
+            baseline: options.baseline,
+            baseline_fit,
+            final_localisation: localise(data, &current),
+            steps,
+            final_candidates,
+            removed,
+            final_fit: current,
+            noise_sample_fraction: noise_fraction,
+            rate_spread,
+            speed_spread,
+            unidentifiable: unidentifiable.clone(),
+            damping_held,
+        })
+    };
+    if !(one_speed && onset_from_free_space) {
+        return run(one_speed);
     }
-    // Backward check: an effect added later can take over an earlier one's role (a power
-    // law whose n absorbed a missing mass is n ≈ 1 once the mass is in). Every added
-    // effect must still pass the acceptance rule against the final model without it;
-    // the least needed one that does not is taken out, and the check repeats. (With one
-    // added effect nothing changed since it was accepted against the baseline.)
-    let mut removed = Vec::new();
-    loop {
-        let added: Vec<Effect> = effects
-            .iter()
-            .copied()
-            .filter(|e| !baseline.contains(e))
-            .collect();
-        if added.len() < 2 {
-            break;
-        }
-        let weakest = added
-            .into_par_iter()
-            .filter_map(|e| {
-                let mut without = effects.clone();
-                without.remove(&e);
-                let fit = fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
-                let kept = score(
-                    e,
-                    None,
-                    current.clone(),
-                    &fit,
-                    options,
-                    duration_s,
-                    noise_fraction,
-                );
-                Some((kept, fit))
+    // Both readings of a one-speed record with an onset: the damping free (a
+    // Kelvin-Voigt material's step λv at the onset) and held (the elastic reading; on a
+    // stiffening law the free damping's step can lead the contact point's search into a
+    // worse basin). The free reading is kept only if it passes the acceptance rule's BIC
+    // drop against the held one, its λ counted as the parameter it is.
+    match (run(false), run(true)) {
+        (Some(free), Some(held)) => {
+            let n_eff = samples_counted(&free.final_fit, noise_fraction);
+            let floor = rss_floor(data, &free.final_fit);
+            let drop = delta_bic(&free.final_fit, &held.final_fit, n_eff, floor) + n_eff.ln();
+            Some(if drop < -options.min_bic_drop {
+                free
+            } else {
+                held
             })
-            .filter(|(kept, _)| !kept.significant)
-            .max_by(|a, b| a.0.delta_bic.total_cmp(&b.0.delta_bic));
-        let Some((kept, after)) = weakest else {
-            break;
-        };
-        effects.remove(&kept.effect);
-        current = after.clone();
-        removed.push(Removal {
-            effect: kept.effect,
-            kept,
-            after,
-        });
+        }
+        (free, held) => held.or(free),
     }
-    Some(Diagnosis {
-        baseline: options.baseline,
-        baseline_fit,
-        final_localisation: localise(data, &current),
-        steps,
-        final_candidates,
-        removed,
-        final_fit: current,
-        noise_sample_fraction: noise_fraction,
-        rate_spread,
-        speed_spread,
-        unidentifiable,
-    })
 }
 
 /// The significant candidate to name and the others the record cannot tell apart from

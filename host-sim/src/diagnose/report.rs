@@ -86,6 +86,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "noise_sample_fraction": d.noise_sample_fraction,
         "rate_spread_at_depth": d.rate_spread,
         "speed_spread_at_depth": d.speed_spread,
+        "linear_damping_held": d.damping_held,
         "not_identifiable": d.unidentifiable.iter().map(|e| {
             let (why, motion) = super::unidentifiable_reason(d, *e);
             json!({"effect": e.id(), "why": why, "separating_motion": motion})
