@@ -97,6 +97,9 @@ fn loading_ramp_names_the_power_law_never_damping() {
             "{name}: damping not reported unidentifiable"
         );
         assert_eq!(d.final_fit.parameter(Param::Lambda), Some(0.0), "{name}");
+        // The ramp starts in free space: the damping free was fitted too, and lost.
+        assert!(d.damping_held, "{name}");
+        assert!(d.onset_damping_delta_bic.is_some(), "{name}");
     }
 }
 
@@ -147,6 +150,12 @@ fn kelvin_voigt_ramp_from_free_space_fits_the_onset_step_as_damping() {
         let d = diagnose_record(dir.path(), &name, &x, &kv(&x), 0.05, seed);
         assert!(d.effects_added().is_empty(), "{name}: {}", d.final_model());
         assert!(!d.damping_held, "{name}");
+        // Both readings were fitted, and the free one won by more than the threshold.
+        let drop = d.onset_damping_delta_bic.expect("both readings compared");
+        assert!(
+            drop < -Options::default().min_bic_drop,
+            "{name}: ΔBIC {drop}"
+        );
         let fitted = d.final_fit.parameter(Param::Lambda).expect("λ");
         assert!(
             (fitted / lambda - 1.0).abs() < 0.1,
@@ -162,5 +171,9 @@ fn kelvin_voigt_ramp_from_free_space_fits_the_onset_step_as_damping() {
     let x: Vec<f64> = (0..3000).map(|i| 0.5e-3 + v * dt * i as f64).collect();
     let d = diagnose_record(dir.path(), "kv-in-contact.csv", &x, &kv(&x), 0.05, 14);
     assert!(d.damping_held, "{}", d.final_model());
+    assert_eq!(
+        d.onset_damping_delta_bic, None,
+        "no onset, nothing compared"
+    );
     assert_eq!(d.final_fit.parameter(Param::Lambda), Some(0.0));
 }

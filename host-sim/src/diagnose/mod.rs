@@ -230,6 +230,11 @@ pub struct Diagnosis {
     /// from the tare) or its contact onset's step λv did not pass the acceptance rule's
     /// BIC drop against the elastic reading ([`diagnose`] fits both).
     pub damping_held: bool,
+    /// Where both readings were fitted (a one-speed record whose contact begins from free
+    /// space): BIC of the final model with the damping free minus with it held, λ counted
+    /// as a parameter, on effective samples. The free reading is kept below
+    /// −[`Options::min_bic_drop`].
+    pub onset_damping_delta_bic: Option<f64>,
 }
 
 impl Diagnosis {
@@ -500,6 +505,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             speed_spread,
             unidentifiable: unidentifiable.clone(),
             damping_held,
+            onset_damping_delta_bic: None,
         })
     };
     if !(one_speed && onset_from_free_space) {
@@ -515,10 +521,14 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             let n_eff = samples_counted(&free.final_fit, noise_fraction);
             let floor = rss_floor(data, &free.final_fit);
             let drop = delta_bic(&free.final_fit, &held.final_fit, n_eff, floor) + n_eff.ln();
-            Some(if drop < -options.min_bic_drop {
+            let kept = if drop < -options.min_bic_drop {
                 free
             } else {
                 held
+            };
+            Some(Diagnosis {
+                onset_damping_delta_bic: Some(drop),
+                ..kept
             })
         }
         (free, held) => held.or(free),

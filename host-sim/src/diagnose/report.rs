@@ -87,6 +87,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "rate_spread_at_depth": d.rate_spread,
         "speed_spread_at_depth": d.speed_spread,
         "linear_damping_held": d.damping_held,
+        "onset_damping_delta_bic": d.onset_damping_delta_bic,
         "not_identifiable": d.unidentifiable.iter().map(|e| {
             let (why, motion) = super::unidentifiable_reason(d, *e);
             json!({"effect": e.id(), "why": why, "separating_motion": motion})
@@ -369,6 +370,14 @@ pub fn markdown(
                 "- not tried: `{}`: {why}{spread}. What would identify it: {motion}.",
                 e.id()
             ),
+        );
+    }
+    if let Some(drop) = d.onset_damping_delta_bic {
+        let _ = writeln!(
+            out,
+            "\n**The linear damping at one speed.** Each depth is passed at one speed, but the contact begins from free space, where the damping λ·δ̇ is the step λv that no elastic law makes. The workflow was run with the damping free and held at 0: ΔBIC (free − held, λ counted) {drop:+.1} on effective samples; the {} reading is kept (the free one needs a drop below −{}).",
+            if d.damping_held { "held" } else { "free" },
+            options.min_bic_drop,
         );
     }
     if !ambiguous.is_empty() {
