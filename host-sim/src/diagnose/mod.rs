@@ -29,7 +29,7 @@
 //! A record that passes each depth at one speed (a loading ramp) cannot identify a rate
 //! effect: damping, delay, inertia and friction are not tried. The baseline's own linear
 //! damping λ·δ̇ is held at 0 there, except on a record whose contact begins from free
-//! space: λ·δ̇ is then the step λv at the onset, which no elastic law makes, and the
+//! space (and a baseline whose damping does not depend on depth): λ·δ̇ is then the step λv at the onset, which no elastic law makes, and the
 //! workflow runs with the damping free and held and keeps the free reading only if its
 //! BIC falls by the acceptance threshold ([`Diagnosis::damping_held`]).
 //!
@@ -225,10 +225,11 @@ pub struct Diagnosis {
     /// force offset that trades against the contact point; a later contact point with one
     /// contact).
     pub unidentifiable: Vec<Effect>,
-    /// The baseline's linear damping is held at 0 in every model: the record passes each
-    /// depth at one speed, and either starts in contact (λ·δ̇ is then indistinguishable
-    /// from the tare) or its contact onset's step λv did not pass the acceptance rule's
-    /// BIC drop against the elastic reading ([`diagnose`] fits both).
+    /// The baseline's damping is held at 0 in every model: the record passes each depth
+    /// at one speed, and either starts in contact (λ·δ̇ is then indistinguishable from
+    /// the tare), or the baseline's damping depends on depth (no step at the onset), or
+    /// the contact onset's step λv did not pass the acceptance rule's BIC drop against
+    /// the elastic reading ([`diagnose`] fits both).
     pub damping_held: bool,
     /// Where both readings were fitted (a one-speed record whose contact begins from free
     /// space): BIC of the final model with the damping free minus with it held, λ counted
@@ -305,9 +306,12 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // The baseline's linear damping λ·δ̇ on a one-speed record is the step λv where the
     // contact begins: an elastic law starts at 0 there, so a contact that begins from
     // free space inside the fit window identifies it (a material without damping fits
-    // λ = 0). Only a record that starts in contact (no onset, no free space) holds it at
-    // 0, where the step is the tare's.
-    let onset_from_free_space = !data.offset_unidentified && !data.contact[data.fit_start()];
+    // λ = 0). A record that starts in contact (the fit window's first sample already
+    // past the contact point) holds it at 0: the step is the tare's there. So does a
+    // baseline whose damping depends on depth (Hunt-Crossley: λ·δ^q·δ̇ is 0 at the onset
+    // and, at one speed, a second power law).
+    let onset_from_free_space =
+        data.depth_m[data.fit_start()] < 0.0 && !baseline.contains(&Effect::DepthDependentDamping);
     let run = |damping_held: bool| -> Option<Diagnosis> {
         let mut effects = baseline.clone();
         let held;
@@ -514,8 +518,12 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // Both readings of a one-speed record with an onset: the damping free (a
     // Kelvin-Voigt material's step λv at the onset) and held (the elastic reading; on a
     // stiffening law the free damping's step can lead the contact point's search into a
-    // worse basin). The free reading is kept only if it passes the acceptance rule's BIC
-    // drop against the held one, its λ counted as the parameter it is.
+    // worse basin). The free reading is kept only if its BIC falls by the acceptance
+    // rule's threshold against the held one, on the same effective samples, its λ
+    // counted as the parameter it is, and the residuals floored at the load cell's
+    // resolution as where the workflow compares two fits for a tie (two noise-free
+    // readings must not differ by the search's rounding). Without both, nothing is
+    // compared and the held reading stands, as before.
     match (run(false), run(true)) {
         (Some(free), Some(held)) => {
             let n_eff = samples_counted(&free.final_fit, noise_fraction);
@@ -531,7 +539,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
                 ..kept
             })
         }
-        (free, held) => held.or(free),
+        (_, held) => held,
     }
 }
 
