@@ -312,206 +312,18 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // and, at one speed, a second power law).
     let onset_from_free_space =
         data.depth_m[data.fit_start()] < 0.0 && !baseline.contains(&Effect::DepthDependentDamping);
-    let run = |damping_held: bool| -> Option<Diagnosis> {
-        let mut effects = baseline.clone();
-        let held;
-        let data = if one_speed {
-            held = Prepared {
-                hold_damping: damping_held,
-                hold_tare,
-                ..data.clone()
-            };
-            &held
-        } else {
-            data
-        };
-        let baseline_fit = fit(
-            data,
-            &effects,
-            &Nonlinear::default(),
-            &knobs_of(&effects),
-            Effort::FULL,
-        )?;
-        let mut current = baseline_fit.clone();
-        let mut steps = Vec::new();
-        let mut final_candidates = Vec::new();
-        for _ in 0..options.max_steps {
-            // Every absent effect; one that replaces the same model piece as a present one
-            // (power law ↔ exponential) is tried as a swap: an early choice made while
-            // another effect was still missing can be revised.
-            let untried: Vec<(Effect, Option<Effect>)> = Effect::ALL
-                .into_iter()
-                .filter(|e| !effects.contains(e) && !unidentifiable.contains(e))
-                .map(|e| (e, effects.iter().copied().find(|p| p.conflicts_with(e))))
-                .collect();
-            // Candidates are independent fits: one per core. All are screened with a quick
-            // fit; the best few by RSS are fitted fully, and only those can be accepted.
-            let set = |e: Effect, replaces: Option<Effect>| {
-                let mut with = effects.clone();
-                if let Some(p) = replaces {
-                    with.remove(&p);
-                }
-                with.insert(e);
-                with
-            };
-            let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
-            let fit_one =
-                |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
-                    // On a record with one contact (a compression test), a model with the
-                    // exponential law is screened with the law alone and on the linear
-                    // spring, at every step; the spring is one more parameter and is kept
-                    // only if it passes the rule an effect passes against the law alone. The
-                    // refinement keeps the screened variant. Where later contacts can show a
-                    // shifted contact point, the spring is not offered: near the contact it
-                    // has the same signature as the shift (on the project's sweep it took the
-                    // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
-                    let with = set(e, replaces);
-                    let knobs: Vec<_> = e.knob().into_iter().collect();
-                    let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
-                    let fit = if with.contains(&Effect::ExponentialStiffness)
-                        && effort == Effort::QUICK
-                        && one_contact
-                    {
-                        let variant = |linear_spring| Nonlinear {
-                            linear_spring,
-                            ..*from
-                        };
-                        match (fit_from(&variant(false)), fit_from(&variant(true))) {
-                            (Some(alone), Some(spring)) => {
-                                let keeps = score(
-                                    Effect::ExponentialStiffness,
-                                    None,
-                                    spring.clone(),
-                                    &alone,
-                                    options,
-                                    duration_s,
-                                    noise_fraction,
-                                )
-                                .significant;
-                                if keeps {
-                                    spring
-                                } else {
-                                    alone
-                                }
-                            }
-                            (alone, spring) => alone.or(spring)?,
-                        }
-                    } else {
-                        fit_from(from)?
-                    };
-                    Some(score(
-                        e,
-                        replaces,
-                        fit,
-                        &current,
-                        options,
-                        duration_s,
-                        noise_fraction,
-                    ))
-                };
-            let mut screened: Vec<Candidate> = untried
-                .into_par_iter()
-                .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))
-                .collect();
-            screened.sort_by(|a, b| a.fit.rss.total_cmp(&b.fit.rss));
-            let rest = screened.split_off(SHORTLIST.min(screened.len()));
-            let mut candidates: Vec<Candidate> = screened
-                .into_par_iter()
-                .map(|c| {
-                    fit_one((c.effect, c.replaces), &c.fit.nonlinear, Effort::REFINE)
-                        .filter(|r| r.fit.rss <= c.fit.rss)
-                        .unwrap_or(c)
-                })
-                .collect();
-            candidates.extend(rest.into_iter().map(|mut c| {
-                c.significant = false;
-                c
-            }));
-            candidates.sort_by(|a, b| a.fit.cv_rmse.total_cmp(&b.fit.cv_rmse));
-            let Some((best, indistinguishable_from)) =
-                choose(data, &candidates, options, noise_fraction)
-            else {
-                final_candidates = candidates;
-                break;
-            };
-            if let Some(p) = best.replaces {
-                effects.remove(&p);
-            }
-            effects.insert(best.effect);
-            // (The candidate's fit already refined every nonlinear parameter jointly.)
-            steps.push(Step {
-                effect: best.effect,
-                indistinguishable_from,
-                replaces: best.replaces,
-                localisation_before: localise(data, &current),
-                localisation_after: localise(data, &best.fit),
-                before: current,
-                after: best.fit.clone(),
-                candidates,
-            });
-            current = best.fit;
-        }
-        // Backward check: an effect added later can take over an earlier one's role (a power
-        // law whose n absorbed a missing mass is n ≈ 1 once the mass is in). Every added
-        // effect must still pass the acceptance rule against the final model without it;
-        // the least needed one that does not is taken out, and the check repeats. (With one
-        // added effect nothing changed since it was accepted against the baseline.)
-        let mut removed = Vec::new();
-        loop {
-            let added: Vec<Effect> = effects
-                .iter()
-                .copied()
-                .filter(|e| !baseline.contains(e))
-                .collect();
-            if added.len() < 2 {
-                break;
-            }
-            let weakest = added
-                .into_par_iter()
-                .filter_map(|e| {
-                    let mut without = effects.clone();
-                    without.remove(&e);
-                    let fit = fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
-                    let kept = score(
-                        e,
-                        None,
-                        current.clone(),
-                        &fit,
-                        options,
-                        duration_s,
-                        noise_fraction,
-                    );
-                    Some((kept, fit))
-                })
-                .filter(|(kept, _)| !kept.significant)
-                .max_by(|a, b| a.0.delta_bic.total_cmp(&b.0.delta_bic));
-            let Some((kept, after)) = weakest else {
-                break;
-            };
-            effects.remove(&kept.effect);
-            current = after.clone();
-            removed.push(Removal {
-                effect: kept.effect,
-                kept,
-                after,
-            });
-        }
-        Some(Diagnosis {
-            baseline: options.baseline,
-            baseline_fit,
-            final_localisation: localise(data, &current),
-            steps,
-            final_candidates,
-            removed,
-            final_fit: current,
-            noise_sample_fraction: noise_fraction,
-            rate_spread,
-            speed_spread,
-            unidentifiable: unidentifiable.clone(),
-            damping_held,
-            onset_damping_delta_bic: None,
-        })
+    let setting = Setting {
+        options,
+        baseline,
+        unidentifiable,
+        one_speed,
+        hold_tare,
+        duration_s,
+        noise_fraction,
+        rate_spread,
+        speed_spread,
     };
+    let run = |damping_held: bool| workflow(data, &setting, damping_held);
     if !(one_speed && onset_from_free_space) {
         return run(one_speed);
     }
@@ -541,6 +353,232 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         }
         (_, held) => held,
     }
+}
+
+/// What the workflow's runs on one record share: its identifiability verdicts and the
+/// scoring's inputs ([`diagnose`]).
+struct Setting<'a> {
+    options: &'a Options,
+    baseline: BTreeSet<Effect>,
+    unidentifiable: Vec<Effect>,
+    one_speed: bool,
+    hold_tare: bool,
+    duration_s: f64,
+    noise_fraction: Option<f64>,
+    rate_spread: f64,
+    speed_spread: f64,
+}
+
+/// The workflow on `data` from the baseline: the forward steps, then the backward check.
+/// On a one-speed record the damping is held at 0 when `damping_held`, and the tare as
+/// `setting` says.
+fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Diagnosis> {
+    let (options, baseline, unidentifiable) =
+        (setting.options, &setting.baseline, &setting.unidentifiable);
+    let (one_speed, hold_tare, duration_s, noise_fraction) = (
+        setting.one_speed,
+        setting.hold_tare,
+        setting.duration_s,
+        setting.noise_fraction,
+    );
+    let mut effects = baseline.clone();
+    let held;
+    let data = if one_speed {
+        held = Prepared {
+            hold_damping: damping_held,
+            hold_tare,
+            ..data.clone()
+        };
+        &held
+    } else {
+        data
+    };
+    let baseline_fit = fit(
+        data,
+        &effects,
+        &Nonlinear::default(),
+        &knobs_of(&effects),
+        Effort::FULL,
+    )?;
+    let mut current = baseline_fit.clone();
+    let mut steps = Vec::new();
+    let mut final_candidates = Vec::new();
+    for _ in 0..options.max_steps {
+        // Every absent effect; one that replaces the same model piece as a present one
+        // (power law ↔ exponential) is tried as a swap: an early choice made while
+        // another effect was still missing can be revised.
+        let untried: Vec<(Effect, Option<Effect>)> = Effect::ALL
+            .into_iter()
+            .filter(|e| !effects.contains(e) && !unidentifiable.contains(e))
+            .map(|e| (e, effects.iter().copied().find(|p| p.conflicts_with(e))))
+            .collect();
+        // Candidates are independent fits: one per core. All are screened with a quick
+        // fit; the best few by RSS are fitted fully, and only those can be accepted.
+        let set = |e: Effect, replaces: Option<Effect>| {
+            let mut with = effects.clone();
+            if let Some(p) = replaces {
+                with.remove(&p);
+            }
+            with.insert(e);
+            with
+        };
+        let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
+        let fit_one =
+            |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
+                // On a record with one contact (a compression test), a model with the
+                // exponential law is screened with the law alone and on the linear
+                // spring, at every step; the spring is one more parameter and is kept
+                // only if it passes the rule an effect passes against the law alone. The
+                // refinement keeps the screened variant. Where later contacts can show a
+                // shifted contact point, the spring is not offered: near the contact it
+                // has the same signature as the shift (on the project's sweep it took the
+                // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
+                let with = set(e, replaces);
+                let knobs: Vec<_> = e.knob().into_iter().collect();
+                let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
+                let fit = if with.contains(&Effect::ExponentialStiffness)
+                    && effort == Effort::QUICK
+                    && one_contact
+                {
+                    let variant = |linear_spring| Nonlinear {
+                        linear_spring,
+                        ..*from
+                    };
+                    match (fit_from(&variant(false)), fit_from(&variant(true))) {
+                        (Some(alone), Some(spring)) => {
+                            let keeps = score(
+                                Effect::ExponentialStiffness,
+                                None,
+                                spring.clone(),
+                                &alone,
+                                options,
+                                duration_s,
+                                noise_fraction,
+                            )
+                            .significant;
+                            if keeps {
+                                spring
+                            } else {
+                                alone
+                            }
+                        }
+                        (alone, spring) => alone.or(spring)?,
+                    }
+                } else {
+                    fit_from(from)?
+                };
+                Some(score(
+                    e,
+                    replaces,
+                    fit,
+                    &current,
+                    options,
+                    duration_s,
+                    noise_fraction,
+                ))
+            };
+        let mut screened: Vec<Candidate> = untried
+            .into_par_iter()
+            .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))
+            .collect();
+        screened.sort_by(|a, b| a.fit.rss.total_cmp(&b.fit.rss));
+        let rest = screened.split_off(SHORTLIST.min(screened.len()));
+        let mut candidates: Vec<Candidate> = screened
+            .into_par_iter()
+            .map(|c| {
+                fit_one((c.effect, c.replaces), &c.fit.nonlinear, Effort::REFINE)
+                    .filter(|r| r.fit.rss <= c.fit.rss)
+                    .unwrap_or(c)
+            })
+            .collect();
+        candidates.extend(rest.into_iter().map(|mut c| {
+            c.significant = false;
+            c
+        }));
+        candidates.sort_by(|a, b| a.fit.cv_rmse.total_cmp(&b.fit.cv_rmse));
+        let Some((best, indistinguishable_from)) =
+            choose(data, &candidates, options, noise_fraction)
+        else {
+            final_candidates = candidates;
+            break;
+        };
+        if let Some(p) = best.replaces {
+            effects.remove(&p);
+        }
+        effects.insert(best.effect);
+        // (The candidate's fit already refined every nonlinear parameter jointly.)
+        steps.push(Step {
+            effect: best.effect,
+            indistinguishable_from,
+            replaces: best.replaces,
+            localisation_before: localise(data, &current),
+            localisation_after: localise(data, &best.fit),
+            before: current,
+            after: best.fit.clone(),
+            candidates,
+        });
+        current = best.fit;
+    }
+    // Backward check: an effect added later can take over an earlier one's role (a power
+    // law whose n absorbed a missing mass is n ≈ 1 once the mass is in). Every added
+    // effect must still pass the acceptance rule against the final model without it;
+    // the least needed one that does not is taken out, and the check repeats. (With one
+    // added effect nothing changed since it was accepted against the baseline.)
+    let mut removed = Vec::new();
+    loop {
+        let added: Vec<Effect> = effects
+            .iter()
+            .copied()
+            .filter(|e| !baseline.contains(e))
+            .collect();
+        if added.len() < 2 {
+            break;
+        }
+        let weakest = added
+            .into_par_iter()
+            .filter_map(|e| {
+                let mut without = effects.clone();
+                without.remove(&e);
+                let fit = fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
+                let kept = score(
+                    e,
+                    None,
+                    current.clone(),
+                    &fit,
+                    options,
+                    duration_s,
+                    noise_fraction,
+                );
+                Some((kept, fit))
+            })
+            .filter(|(kept, _)| !kept.significant)
+            .max_by(|a, b| a.0.delta_bic.total_cmp(&b.0.delta_bic));
+        let Some((kept, after)) = weakest else {
+            break;
+        };
+        effects.remove(&kept.effect);
+        current = after.clone();
+        removed.push(Removal {
+            effect: kept.effect,
+            kept,
+            after,
+        });
+    }
+    Some(Diagnosis {
+        baseline: options.baseline,
+        baseline_fit,
+        final_localisation: localise(data, &current),
+        steps,
+        final_candidates,
+        removed,
+        final_fit: current,
+        noise_sample_fraction: noise_fraction,
+        rate_spread: setting.rate_spread,
+        speed_spread: setting.speed_spread,
+        unidentifiable: unidentifiable.clone(),
+        damping_held,
+        onset_damping_delta_bic: None,
+    })
 }
 
 /// The significant candidate to name and the others the record cannot tell apart from
