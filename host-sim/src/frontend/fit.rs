@@ -198,6 +198,14 @@ pub struct Problem<'a> {
     y_sums: [f64; 3],
 }
 
+/// The offset held fixed, in units of `force`, if it is.
+fn scaled_fixed_offset(offset: OffsetTerm, force: f64) -> Option<f64> {
+    match offset {
+        OffsetTerm::Free => None,
+        OffsetTerm::Fixed(f0) => Some(f0 / force),
+    }
+}
+
 /// Σ1, Σy and Σy² over the points, y = f − the fixed offset (scaled), the ones counted
 /// only with a free offset; summed in point order, as [`Problem::normal_sums`] did.
 fn y_sums(f: &[f64], fixed: Option<f64>) -> [f64; 3] {
@@ -282,10 +290,7 @@ impl<'a> Problem<'a> {
             .max(f64::MIN_POSITIVE)
             / length;
         let f: Vec<f64> = series.force_n.iter().map(|f| f / force).collect();
-        let fixed = match offset {
-            OffsetTerm::Free => None,
-            OffsetTerm::Fixed(f0) => Some(f0 / force),
-        };
+        let fixed = scaled_fixed_offset(offset, force);
         Problem {
             series,
             sign,
@@ -384,10 +389,7 @@ impl<'a> Problem<'a> {
 
     /// The offset held fixed, in scaled units, if it is.
     fn fixed_offset(&self) -> Option<f64> {
-        match self.offset {
-            OffsetTerm::Free => None,
-            OffsetTerm::Fixed(f0) => Some(f0 / self.force),
-        }
+        scaled_fixed_offset(self.offset, self.force)
     }
 
     /// Sums of the normal equations of φ = \[1 (free offset) or 0, g, h\] over the points
