@@ -54,33 +54,30 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
     (MaterialKind::Qlv, &["power_law_stiffness", "relaxation"]),
 ];
 
-/// Rows below the issue's rates on the sweep of 2026-11-23 (seeds 3000-3019; README
-/// table): the sweep prints them and asserts only the guarantees there (no error, no
-/// effect the record cannot identify), not the rates. Issue 13 stays open on them:
-/// - Kelvin-Voigt (nothing to add) on most structures: 14-18 of 20 clean (a delay, an
+/// Rows below the issue's rates on the sweep of 2026-11-23 evening (seeds 3000-3019;
+/// README table): the sweep prints them and asserts only the guarantees there (no error,
+/// no effect the record cannot identify), not the rates. Issue 13 stays open on them:
+/// - Kelvin-Voigt (nothing to add) on five structures: 14-18 of 20 clean (a delay, an
 ///   exponential law or a contact shift takes up the misfit the smoothed block rate
 ///   leaves at a sharp reversal or impact). (On one constant-speed ramp it was 2/20, the
 ///   damping's impact step λv read as a power law with n < 1 while the one-speed rule
 ///   held the baseline's damping at 0; with the damping fitted from that step, 19/20.)
-/// - the power law on a record that never leaves contact (offset undetermined): 15/20,
-///   n within 10 % in 7/15;
-/// - power law + relaxation (the core's QLV) on sines and chirps: the exponential law
-///   is chosen with relaxation (the relaxation search's start, known weak);
-/// - Hunt-Crossley on ramp-and-hold: 9/20 (the damping alone, no law, in most misses).
-const BELOW_TARGET: [(Structure, MaterialKind); 14] = [
+/// - Hunt-Crossley on ramp-and-hold: 8/20 (the damping alone, no law, in most misses);
+/// - power law + relaxation (the core's QLV) on load/unload ramps: 9/20.
+///
+/// (Out of the list since the contact search continues past its bound,
+/// `solver::widened_at_contact_bound`: the QLV rows on sines and chirps, 1-12/20 → 20/20
+/// (the relaxing onset had put the detector's point up to 23 % of the depth past the
+/// contact, beyond the search range, and an exponential law stood in for the power law
+/// from there), and every row that never leaves contact: 15-17/20 → 19-20/20, QLV
+/// 6/20 → 18/20.)
+const BELOW_TARGET: [(Structure, MaterialKind); 7] = [
     (Structure::ContactSinesBrief, MaterialKind::KelvinVoigt),
-    (Structure::NeverLeaves, MaterialKind::KelvinVoigt),
     (Structure::Chirp, MaterialKind::KelvinVoigt),
     (Structure::RampLoadUnload, MaterialKind::KelvinVoigt),
     (Structure::RampHold, MaterialKind::KelvinVoigt),
     (Structure::Taps, MaterialKind::KelvinVoigt),
-    (Structure::NeverLeaves, MaterialKind::PowerLaw),
-    (Structure::NeverLeaves, MaterialKind::HuntCrossley),
     (Structure::RampHold, MaterialKind::HuntCrossley),
-    (Structure::ApproachSines, MaterialKind::Qlv),
-    (Structure::ContactSinesBrief, MaterialKind::Qlv),
-    (Structure::NeverLeaves, MaterialKind::Qlv),
-    (Structure::Chirp, MaterialKind::Qlv),
     (Structure::RampLoadUnload, MaterialKind::Qlv),
 ];
 

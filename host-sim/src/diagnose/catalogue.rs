@@ -199,7 +199,7 @@ impl Knob {
     pub(super) fn range(self, scale: &Scales) -> (f64, f64, bool) {
         let l = scale.depth_m;
         match self {
-            Knob::ContactPosition => (-0.2 * l, 0.2 * l, false),
+            Knob::ContactPosition => (-scale.contact_span * l, scale.contact_span * l, false),
             Knob::Exponent => (0.5, 3.5, false),
             Knob::StiffeningRate => (0.05 / l, 8.0 / l, true),
             Knob::DampingExponent => (0.1, 3.0, false),
@@ -334,7 +334,17 @@ pub struct Scales {
     pub duration_s: f64,
     /// Sample time of the fitting samples \[s\].
     pub dt_s: f64,
+    /// Half-width of the contact position's search range, as a fraction of
+    /// [`Scales::depth_m`] ([`CONTACT_SPAN`]; widened by the solver when a fit ends at
+    /// its bound).
+    pub contact_span: f64,
 }
+
+/// Half-width of the contact position's search range around the detector's point, as a
+/// fraction of the deepest penetration: the detector's threshold point is usually within
+/// a few per cent of the depth, and a narrow range keeps the contact from trading against
+/// the other knobs.
+pub const CONTACT_SPAN: f64 = 0.2;
 
 impl Scales {
     /// From the prepared log.
@@ -358,6 +368,7 @@ impl Scales {
             rate_m_per_s: rate.max(1e-12),
             duration_s: (data.len() as f64 * data.dt).max(data.dt),
             dt_s: data.dt,
+            contact_span: CONTACT_SPAN,
         }
     }
 }
