@@ -66,8 +66,8 @@ pub const RATE_SPREAD_MIN: f64 = 0.2;
 pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
     if d.one_speed_each_way_only() && matches!(e, Effect::CoulombFriction | Effect::Inertia) {
         (
-            "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ vanishes but at the reversals, where a sampled record cannot place the step within a sample",
-            "a second speed (damping scales with it, friction does not) or smooth reversals (a mass needs accelerations)",
+            "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ is a function of depth too: on constant-speed strokes it vanishes but at the reversals, where a sampled record cannot place the step within a sample; on an oscillation at one frequency ω it is −ω²·(δ − δ₀), so a mass is a stiffness −mω² and a constant",
+            "a second speed (damping scales with it, friction does not) or a second frequency (a mass's force is then no function of depth)",
         )
     } else if e == Effect::PlasticSet {
         (

@@ -254,8 +254,8 @@ impl Diagnosis {
     }
 
     /// The record passes each depth at one speed in each direction but not at one speed
-    /// overall (a load/unload triangle): the case in which Coulomb friction and inertia
-    /// are not tried while the other rate effects are.
+    /// overall (a load/unload triangle, a tap or sine at one frequency): the case in which
+    /// Coulomb friction and inertia are not tried while the other rate effects are.
     pub fn one_speed_each_way_only(&self) -> bool {
         self.rate_spread >= RATE_SPREAD_MIN && self.speed_spread < RATE_SPREAD_MIN
     }
@@ -282,8 +282,8 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // record shows it as the step at a contact onset, below).
     let rate_spread = rate_spread_at_depth(data, data.fit_start());
     let one_speed = rate_spread < RATE_SPREAD_MIN;
-    // Passed at one speed each way (loading and unloading): a sign law is ±λv, and δ̈
-    // vanishes but at the reversals.
+    // Passed at one speed each way (loading and unloading): a sign law is ±λv, and δ̈ is
+    // a function of depth (0 but at the reversals of a stroke; −ω²·(δ − δ₀) on a sine).
     let speed_spread = speed_spread_at_depth(data, data.fit_start());
     let one_speed_each_way = speed_spread < RATE_SPREAD_MIN;
     let hold_tare = one_speed && data.offset_unidentified;
