@@ -63,7 +63,8 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
 ///   damping's impact step λv read as a power law with n < 1 while the one-speed rule
 ///   held the baseline's damping at 0; with the damping fitted from that step, 19/20.)
 /// - Hunt-Crossley on ramp-and-hold: 8/20 (the damping alone, no law, in most misses);
-/// - power law + relaxation (the core's QLV) on load/unload ramps: 9/20.
+/// - power law + relaxation (the core's QLV) on one load/unload ramp: 9/20 (in 8 more
+///   the plastic set is named with relaxation listed as indistinguishable from it).
 ///
 /// (Out of the list since the contact search continues past its bound,
 /// `solver::widened_at_contact_bound`: the QLV rows on sines and chirps, 1-12/20 → 20/20
