@@ -29,9 +29,10 @@
 //! A record that passes each depth at one speed (a loading ramp) cannot identify a rate
 //! effect: damping, delay, inertia and friction are not tried. The baseline's own linear
 //! damping λ·δ̇ is held at 0 there, except on a record whose contact begins from free
-//! space (and a baseline whose damping does not depend on depth): λ·δ̇ is then the step λv at the onset, which no elastic law makes, and the
-//! workflow runs with the damping free and held and keeps the free reading only if its
-//! BIC falls by the acceptance threshold ([`Diagnosis::damping_held`]).
+//! space (and a baseline whose damping does not depend on depth): λ·δ̇ is then the step
+//! λv at the onset, which no elastic law makes, and the workflow runs with the damping
+//! free and held and keeps the free reading only if its BIC falls by the acceptance
+//! threshold ([`Diagnosis::damping_held`]).
 //!
 //! The loop stops when no candidate passes, or after [`Options::max_steps`]. Then the
 //! **backward check**: every added effect must still pass the same rule against the
