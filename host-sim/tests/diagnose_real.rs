@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use host_sim::diagnose::catalogue::Param;
+use host_sim::diagnose::catalogue::{Determination, Param};
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::diagnose_file;
 use host_sim::phases::Phase;
@@ -97,6 +97,65 @@ fn steel_loading_names_a_stiffening_law_first() {
 fn gap_shrinks_on_the_whole_steel_indentation() {
     let d = diagnosed("nanoindentation/steel-hysitron.txt", None);
     gap_shrinks("steel-hysitron", &d, 0.25);
+}
+
+/// h_f/h_max of a nanoindentation file read directly (`Depth (nm)`, `Load (µN)` rows):
+/// the depth where the unloading force first falls below 2 % of its peak after the
+/// deepest point, and the deepest, both from the depth where the loading force first
+/// exceeds 2 % of its peak.
+fn residual_depth_ratio(path: &Path) -> f64 {
+    let bytes = std::fs::read(path).unwrap();
+    let rows: Vec<(f64, f64)> = String::from_utf8_lossy(&bytes)
+        .lines()
+        .filter_map(|l| {
+            let mut f = l.split_whitespace().map(|x| x.parse::<f64>());
+            match (f.next(), f.next(), f.next()) {
+                (Some(Ok(d)), Some(Ok(f)), Some(Ok(_))) => Some((d, f)),
+                _ => None,
+            }
+        })
+        .collect();
+    let peak = rows.iter().map(|r| r.1).fold(f64::MIN, f64::max);
+    let deepest = (0..rows.len())
+        .max_by(|a, b| rows[*a].0.total_cmp(&rows[*b].0))
+        .unwrap();
+    let onset = rows.iter().find(|r| r.1 > 0.02 * peak).unwrap().0;
+    let residual = rows[deepest..]
+        .iter()
+        .find(|r| r.1 < 0.02 * peak)
+        .unwrap()
+        .0;
+    (residual - onset) / (rows[deepest].0 - onset)
+}
+
+/// The whole steel indentation (load to 3000 µN, hold, unload): a metal indented by a
+/// sharp tip keeps most of its depth (h_f/h_max 0.85 on this file). The plastic set is
+/// named with its fraction within 0.1 of the file's own h_f/h_max (searched up to 0.4,
+/// it was held there and a slow relaxation with a relaxed fraction of 3 made up the
+/// rest), and a relaxed fraction above 1 is never reported as determined.
+#[test]
+fn steel_indentation_keeps_its_plastic_depth() {
+    let name = "nanoindentation/steel-hysitron.txt";
+    let d = diagnosed(name, None);
+    assert!(
+        d.effects_added().contains(&"plastic_set"),
+        "{}",
+        d.final_model()
+    );
+    let p = d
+        .final_fit
+        .parameter(Param::PlasticFraction)
+        .expect("plastic fraction");
+    let ratio = residual_depth_ratio(&data(name));
+    assert!(
+        (0.6..0.95).contains(&ratio) && (p - ratio).abs() <= 0.1,
+        "plastic fraction {p} against h_f/h_max {ratio}"
+    );
+    for e in &d.final_fit.parameters {
+        if e.param == Param::RelaxedFraction && e.determination == Determination::Determined {
+            assert!(e.value <= 1.0, "relaxed fraction {}", e.value);
+        }
+    }
 }
 
 /// Ecoflex compression to 67 % strain at one speed (10 mm/min), loading only, never out

@@ -215,9 +215,23 @@ impl Knob {
                 false,
             ),
             Knob::ContactShift => (-0.25 * l, 0.25 * l, false),
-            Knob::PlasticFraction => (0.0, 0.4, false),
+            Knob::PlasticFraction => (0.0, scale.plastic_max, false),
             Knob::SlipRate => (0.005 * scale.rate_m_per_s, 0.5 * scale.rate_m_per_s, true),
         }
+    }
+
+    /// Whether `value` lies within 0.1 % of its search range (on the search's own scale,
+    /// logarithmic where [`Knob::range`] says so) from a bound of [`Knob::range`]: the fit
+    /// ended where the search stopped it, not at a minimum of the RSS.
+    pub(super) fn at_bound(self, value: f64, scale: &Scales) -> bool {
+        let (lo, hi, log) = self.range(scale);
+        let (x, lo, hi) = if log {
+            (value.max(f64::MIN_POSITIVE).ln(), lo.ln(), hi.ln())
+        } else {
+            (value, lo, hi)
+        };
+        let margin = 1e-3 * (hi - lo);
+        x <= lo + margin || x >= hi - margin
     }
 }
 
@@ -311,8 +325,24 @@ impl Serialize for Param {
     }
 }
 
+/// What the record determined of a fitted parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Determination {
+    /// Fitted inside its search range (its standard error from the RSS's curvature).
+    Determined,
+    /// Ended at a bound of its search range (`Knob::at_bound`): the value is the
+    /// bound's, not the record's (an exponent pushed to 3.5, a stiffening rate at
+    /// 8/δ_max, a contact at the widest search), and a standard error from the one-sided
+    /// curvature there would claim a precision the fit does not have.
+    AtSearchBound,
+    /// Only its product with the named parameter is determined: a relaxation mode slower
+    /// than the record (ν at its bound 0.3/T) has the column z − u ≈ −ν·∫u dt, so its
+    /// fraction c and rate ν trade at a fixed c·ν (eqs. 5-17 with ν·T ≪ 1).
+    ProductOnly(Param),
+}
+
 /// A fitted parameter: SI value and standard error (NaN where not estimated, 0 for a
-/// coefficient held at its physical bound).
+/// coefficient held at its physical bound), and whether the record determined it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Estimate {
     /// Which parameter.
@@ -321,6 +351,8 @@ pub struct Estimate {
     pub value: f64,
     /// Standard error, SI.
     pub standard_error: f64,
+    /// Whether the record determined the value.
+    pub determination: Determination,
 }
 
 /// Typical magnitudes of a log, for scaling and search bounds.
@@ -338,7 +370,26 @@ pub struct Scales {
     /// [`Scales::depth_m`] ([`CONTACT_SPAN`]; widened by the solver when a fit ends at
     /// its bound).
     pub contact_span: f64,
+    /// Upper bound of the plastic set's search range, a fraction of the deepest
+    /// indentation ([`PLASTIC_MAX`]; widened by the solver when a fit ends at it).
+    pub plastic_max: f64,
+    /// The set the record's unloading shows without a model (`observed_set`: h_f/h_max),
+    /// a fraction of [`Scales::depth_m`]: the plastic set's range is widened past
+    /// [`PLASTIC_MAX`] only where it exceeds it.
+    pub observed_set: f64,
 }
+
+/// Upper bound of the plastic-set fraction searched first: polymers and soft tissue keep
+/// a set of a few to a few tens of per cent of the depth, and a narrow range keeps the
+/// search's grid fine where they lie. A metal indented by a sharp tip keeps most of it
+/// (h_f/h_max ≈ 0.7-0.9 for steel); where the record's own unloading shows a set beyond
+/// this bound ([`Scales::observed_set`]), a fit that ends at it continues on
+/// [0, [`MAX_PLASTIC_FRACTION`]].
+pub const PLASTIC_MAX: f64 = 0.4;
+
+/// Largest plastic-set fraction searched: a set equal to the whole depth leaves no
+/// elastic recovery to fit.
+pub const MAX_PLASTIC_FRACTION: f64 = 0.95;
 
 /// Half-width of the contact position's search range around the detector's point, as a
 /// fraction of the deepest penetration: the detector's threshold point is usually within
@@ -369,8 +420,28 @@ impl Scales {
             duration_s: (data.len() as f64 * data.dt).max(data.dt),
             dt_s: data.dt,
             contact_span: CONTACT_SPAN,
+            plastic_max: PLASTIC_MAX,
+            observed_set: observed_set(data, depth),
         }
     }
+}
+
+/// The set the record's own unloading shows, as a fraction of the deepest penetration
+/// `deepest_m`: after the deepest point, the depth at which the force first falls below
+/// 5 % of its peak (0 where the record never unloads that far). A nanoindentation's
+/// h_f/h_max, read without a model. (A damped material released as fast as it was
+/// pressed shows a force-free depth too: a Hunt-Crossley ramp-and-hold of the structures
+/// sweep, seed 3004, whose damping carries half the peak force, drops to 5 % at 0.93 of
+/// its depth.)
+fn observed_set(data: &Prepared, deepest_m: f64) -> f64 {
+    let Some(at) = (0..data.len()).max_by(|a, b| data.depth_m[*a].total_cmp(&data.depth_m[*b]))
+    else {
+        return 0.0;
+    };
+    let peak = data.force_n.iter().copied().fold(0.0f64, f64::max);
+    (at..data.len())
+        .find(|&i| data.force_n[i] < 0.05 * peak)
+        .map_or(0.0, |i| (data.depth_m[i] / deepest_m).clamp(0.0, 1.0))
 }
 
 /// Values of the nonlinear parameters.

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use serde_json::{json, Map, Value};
 
+use super::catalogue::{Determination, Estimate};
 use super::data::Prepared;
 use super::solver::Fit;
 use super::{Candidate, Diagnosis, Localisation, Options, PHASE_ORDER};
@@ -32,10 +33,42 @@ fn parameters_json(fit: &Fit) -> (Value, Value) {
     (Value::Object(values), Value::Object(errors))
 }
 
+/// Why the record did not determine a parameter ([`Determination`]), or `None` where it did.
+fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
+    match p.determination {
+        Determination::Determined => None,
+        Determination::AtSearchBound => {
+            Some(
+                "ended at a bound of its search range: the value is the range's, not one the record determined"
+                    .into(),
+            )
+        }
+        Determination::ProductOnly(other) => Some(format!(
+            "only its product with {} is determined ({:.4e}): the mode is slower than the record",
+            other.id(),
+            p.value * fit.parameter(other).unwrap_or(f64::NAN)
+        )),
+    }
+}
+
+/// `{name: why}` of the parameters a fit's record did not determine.
+fn undetermined_json(fit: &Fit) -> Value {
+    Value::Object(
+        fit.parameters
+            .iter()
+            .filter_map(|p| {
+                undetermined_reason(fit, p).map(|why| (p.param.id().into(), json!(why)))
+            })
+            .collect(),
+    )
+}
+
 /// The `--json` object: `{"baseline", "steps": [{"effect", "parameters",
 /// "nrmse_percent_before", "nrmse_percent_after", …}], "effects_added", "final_model",
 /// "nrmse_percent_final", "elastic_force_table", …}`; each step lists the effects the
-/// record cannot tell apart from it (`"indistinguishable_from"`). `file` names the input.
+/// record cannot tell apart from it (`"indistinguishable_from"`), and the parameters its
+/// record did not determine (`"undetermined"`, `{name: why}`, their standard errors
+/// `null`; `"final_undetermined"` for the final model). `file` names the input.
 pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
     let steps: Vec<Value> = d
         .steps
@@ -47,6 +80,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
                 "replaces": s.replaces.map(|e| e.id()),
                 "parameters": parameters,
                 "standard_errors": uncertainties,
+                "undetermined": undetermined_json(&s.after),
                 "nrmse_percent_before": s.before.nrmse_percent,
                 "nrmse_percent_after": s.after.nrmse_percent,
                 "vaf_percent_after": s.after.vaf_percent,
@@ -80,6 +114,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "final_model": d.final_model(),
         "final_parameters": parameters,
         "final_standard_errors": uncertainties,
+        "final_undetermined": undetermined_json(&d.final_fit),
         "nrmse_percent_final": d.final_fit.nrmse_percent,
         "vaf_percent_final": d.final_fit.vaf_percent,
         "elastic_force_table": elastic_force_table(d, data),
@@ -116,13 +151,16 @@ pub fn elastic_force_table(d: &Diagnosis, data: &Prepared) -> Value {
     json!({"depth_m": depth, "force_n": force})
 }
 
-/// Parameters as `name = value ± se` (SI; value only where no error was estimated).
+/// Parameters as `name = value ± se` (SI; value only where no error was estimated, and
+/// why where the record did not determine it).
 fn parameters_text(fit: &Fit) -> String {
     fit.parameters
         .iter()
         .map(|p| {
             let (n, v, se) = (p.param.id(), p.value, p.standard_error);
-            if se.is_finite() && se > 0.0 {
+            if let Some(why) = undetermined_reason(fit, p) {
+                format!("{n} = {v:.4e} (not determined: {why})")
+            } else if se.is_finite() && se > 0.0 {
                 format!("{n} = {v:.4e} ± {se:.2e}")
             } else {
                 format!("{n} = {v:.4e}")

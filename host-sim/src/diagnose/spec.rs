@@ -289,6 +289,9 @@ impl ModelSpec {
         )?;
         if let Some(p) = self.plastic_fraction {
             non_negative("plastic_fraction", p)?;
+            if p >= 1.0 {
+                bail!("field plastic_fraction: must be < 1 (a set of the whole depth leaves no elastic recovery)");
+            }
         }
         present(
             "contact_shift_m",
