@@ -114,13 +114,19 @@ impl Row {
         }
     }
 
-    /// The row of a `diagnose --json` object.
+    /// The row of a `diagnose --json` object (a final parameter is identifiable unless its
+    /// `"final_undetermined"` says why not).
     pub fn from_diagnosis(file: &Path, json: &Value, seconds: f64) -> Row {
+        let parameters = numbers(&json["final_parameters"]);
         Row {
             file: file.display().to_string(),
             status: "ok",
             model: json["final_model"].as_str().map(str::to_owned),
-            parameters: numbers(&json["final_parameters"]),
+            identifiable: parameters
+                .keys()
+                .map(|k| (k.clone(), json["final_undetermined"].get(k).is_none()))
+                .collect(),
+            parameters,
             nrmse_percent: json["nrmse_percent_final"].as_f64(),
             vaf_percent: json["vaf_percent_final"].as_f64(),
             effects: strings(&json["effects_added"]),
