@@ -62,9 +62,7 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
 ///   leaves at a sharp reversal or impact). (On one constant-speed ramp it was 2/20, the
 ///   damping's impact step λv read as a power law with n < 1 while the one-speed rule
 ///   held the baseline's damping at 0; with the damping fitted from that step, 19/20.)
-/// - Hunt-Crossley on ramp-and-hold: 7/20 (the damping alone, no law, in most misses;
-///   seed 3004, released as fast as pressed, shows a force-free 0.93 of its depth and
-///   takes a plastic set of 0.79 since the set's range widens where a record shows one);
+/// - Hunt-Crossley on ramp-and-hold: 8/20 (the damping alone, no law, in most misses);
 /// - power law + relaxation (the core's QLV) on one load/unload ramp: 9/20 (in 8 more
 ///   the plastic set is named with relaxation listed as indistinguishable from it).
 ///

@@ -221,9 +221,13 @@ impl Knob {
     }
 
     /// Whether `value` lies within 0.1 % of its search range (on the search's own scale,
-    /// logarithmic where [`Knob::range`] says so) from a bound of [`Knob::range`]: the fit
-    /// ended where the search stopped it, not at a minimum of the RSS.
+    /// logarithmic where [`Knob::range`] says so) from a bound of [`Knob::range`], or
+    /// outside it (a start no search step moved), or is not finite: the fit ended where
+    /// the search stopped it, not at a minimum of the RSS.
     pub(super) fn at_bound(self, value: f64, scale: &Scales) -> bool {
+        if !value.is_finite() {
+            return true;
+        }
         let (lo, hi, log) = self.range(scale);
         let (x, lo, hi) = if log {
             (value.max(f64::MIN_POSITIVE).ln(), lo.ln(), hi.ln())
@@ -330,13 +334,18 @@ impl Serialize for Param {
 pub enum Determination {
     /// Fitted inside its search range (its standard error from the RSS's curvature).
     Determined,
-    /// Ended at a bound of its search range (`Knob::at_bound`): the value is the
-    /// bound's, not the record's (an exponent pushed to 3.5, a stiffening rate at
-    /// 8/δ_max, a contact at the widest search), and a standard error from the one-sided
-    /// curvature there would claim a precision the fit does not have.
+    /// Held at a bound of its search range (`Knob::at_bound`): the record's optimum may
+    /// lie beyond it (an exponent pushed to 3.5, a stiffening rate at 8/δ_max, a contact
+    /// at the widest search), and a standard error from the RSS's curvature at a point
+    /// that is not its minimum would claim a precision the fit does not have.
     AtSearchBound,
+    /// Held at 0 because the record cannot identify it (the baseline's damping λ on a
+    /// record that passes each depth at one speed: see the diagnosis's
+    /// `not_identifiable`).
+    Held,
     /// Only its product with the named parameter is determined: a relaxation mode slower
-    /// than the record (ν at its bound 0.3/T) has the column z − u ≈ −ν·∫u dt, so its
+    /// than the record (ν at its slow bound min(0.3/T, 0.05 /s)) has the column
+    /// z − u ≈ −ν·∫u dt, so its
     /// fraction c and rate ν trade at a fixed c·ν (eqs. 5-17 with ν·T ≪ 1).
     ProductOnly(Param),
 }
@@ -371,7 +380,8 @@ pub struct Scales {
     /// its bound).
     pub contact_span: f64,
     /// Upper bound of the plastic set's search range, a fraction of the deepest
-    /// indentation ([`PLASTIC_MAX`]; widened by the solver when a fit ends at it).
+    /// indentation ([`PLASTIC_MAX`]; widened by the solver when a fit ends at it on a
+    /// record whose [`Scales::observed_set`] exceeds it).
     pub plastic_max: f64,
     /// The set the record's unloading shows without a model (`observed_set`: h_f/h_max),
     /// a fraction of [`Scales::depth_m`]: the plastic set's range is widened past

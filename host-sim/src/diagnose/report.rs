@@ -37,12 +37,13 @@ fn parameters_json(fit: &Fit) -> (Value, Value) {
 fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
     match p.determination {
         Determination::Determined => None,
-        Determination::AtSearchBound => {
-            Some(
-                "ended at a bound of its search range: the value is the range's, not one the record determined"
-                    .into(),
-            )
-        }
+        Determination::AtSearchBound => Some(
+            "held at a bound of its search range: the record's optimum may lie beyond, so the value is the range's"
+                .into(),
+        ),
+        Determination::Held => Some(
+            "held at 0: the record cannot identify it (see not_identifiable)".into(),
+        ),
         Determination::ProductOnly(other) => Some(format!(
             "only its product with {} is determined ({:.4e}): the mode is slower than the record",
             other.id(),

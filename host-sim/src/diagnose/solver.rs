@@ -603,17 +603,42 @@ pub fn fit(
     {
         return Some(first);
     }
-    let wide = Scales {
+    let mut wide = Scales {
         plastic_max: MAX_PLASTIC_FRACTION,
         ..scale
     };
+    // The contact range `first` ended on (a `Fit` does not keep its `Scales`).
+    while wide.contact_span < MAX_CONTACT_SPAN
+        && !(Knob::ContactPosition.range(&wide).0..Knob::ContactPosition.range(&wide).1)
+            .contains(&first.nonlinear.contact_m)
+    {
+        wide.contact_span = (2.0 * wide.contact_span).min(MAX_CONTACT_SPAN);
+    }
     let mut global = global.to_vec();
     if !global.contains(&Knob::PlasticFraction) {
         global.push(Knob::PlasticFraction);
     }
+    // A grid over the whole wider range even for a refinement (whose golden section
+    // would only bracket 0.4).
+    let effort = Effort {
+        grid: effort.grid.max(Effort::QUICK.grid),
+        ..effort
+    };
     match fit_on(data, effects, &first.nonlinear, &global, effort, wide) {
         Some(w) if w.rss < first.rss => Some(w),
-        _ => Some(first),
+        _ => {
+            // No set in [0, 0.95] fits better: the bound of the first range is the
+            // minimum on the wider one, found (as a contact the wider search kept).
+            let mut first = first;
+            if let Some(e) = first
+                .parameters
+                .iter_mut()
+                .find(|e| e.param == Param::PlasticFraction)
+            {
+                e.determination = Determination::Determined;
+            }
+            Some(first)
+        }
     }
 }
 
@@ -851,12 +876,13 @@ fn name_parameters(
             },
         knob_se(Knob::ContactPosition),
     );
-    mark_undetermined(&mut out, effects, nl, scale);
+    mark_undetermined(&mut out, effects, nl, scale, data.hold_damping);
     out
 }
 
-/// Marks the parameters the record did not determine ([`Determination`]): a knob at a
-/// bound of its search range (the contact only at the widest, [`MAX_CONTACT_SPAN`]), and
+/// Marks the parameters the record did not determine ([`Determination`]): the baseline's
+/// damping where it is held at 0, a knob at a bound of its search range (the contact only
+/// at the widest, [`MAX_CONTACT_SPAN`]; a plastic set of 0 is a physical bound), and
 /// a relaxation's fraction when its rate sits at the slow bound (only c·ν is fitted
 /// then). Their standard errors become NaN (not reported).
 fn mark_undetermined(
@@ -864,6 +890,7 @@ fn mark_undetermined(
     effects: &BTreeSet<Effect>,
     nl: &Nonlinear,
     scale: &Scales,
+    hold_damping: bool,
 ) {
     let mut mark = |param: Param, determination: Determination| {
         if let Some(e) = out.iter_mut().find(|e| e.param == param) {
@@ -875,9 +902,14 @@ fn mark_undetermined(
         // A contact at the bound of a narrower range than the widest is where the wider
         // search did not lower the RSS (`widened_at_contact_bound`): a minimum, found.
         let widest = knob != Knob::ContactPosition || scale.contact_span >= MAX_CONTACT_SPAN;
-        if widest && knob.at_bound(nl.get(knob), scale) {
+        // No set is a physical bound, not a search choice.
+        let physical = knob == Knob::PlasticFraction && nl.plastic < 0.5 * scale.plastic_max;
+        if widest && !physical && knob.at_bound(nl.get(knob), scale) {
             mark(Param::of_knob(knob), Determination::AtSearchBound);
         }
+    }
+    if hold_damping {
+        mark(Param::Lambda, Determination::Held);
     }
     let (slowest, _, _) = Knob::RelaxationRate.range(scale);
     if effects.contains(&Effect::Relaxation)
