@@ -595,10 +595,9 @@ pub fn fit(
         scale.plastic_max = MAX_PLASTIC_FRACTION;
     }
     let first = fit_on(data, effects, initial, global, effort, scale)?;
-    let (_, plastic_max, _) = Knob::PlasticFraction.range(&scale);
     if !effects.contains(&Effect::PlasticSet)
-        || scale.observed_set <= plastic_max
-        || first.nonlinear.plastic < 0.5 * plastic_max
+        || scale.observed_set <= scale.plastic_max
+        || first.nonlinear.plastic < 0.5 * scale.plastic_max
         || !Knob::PlasticFraction.at_bound(first.nonlinear.plastic, &scale)
     {
         return Some(first);
@@ -609,8 +608,7 @@ pub fn fit(
     };
     // The contact range `first` ended on (a `Fit` does not keep its `Scales`).
     while wide.contact_span < MAX_CONTACT_SPAN
-        && !(Knob::ContactPosition.range(&wide).0..Knob::ContactPosition.range(&wide).1)
-            .contains(&first.nonlinear.contact_m)
+        && first.nonlinear.contact_m.abs() >= wide.contact_span * wide.depth_m
     {
         wide.contact_span = (2.0 * wide.contact_span).min(MAX_CONTACT_SPAN);
     }
