@@ -225,8 +225,14 @@ impl Knob {
     /// outside it (a start no search step moved), or is not finite: the fit ended where
     /// the search stopped it, not at a minimum of the RSS.
     pub(super) fn at_bound(self, value: f64, scale: &Scales) -> bool {
+        self.bound_hit(value, scale).is_some()
+    }
+
+    /// Which bound [`Knob::at_bound`] found `value` at (a non-finite value counts as at
+    /// the upper one; a value ≤ 0 on a logarithmic range as at the lower one).
+    pub(super) fn bound_hit(self, value: f64, scale: &Scales) -> Option<Bound> {
         if !value.is_finite() {
-            return true;
+            return Some(Bound::Upper);
         }
         let (lo, hi, log) = self.range(scale);
         let (x, lo, hi) = if log {
@@ -235,8 +241,23 @@ impl Knob {
             (value, lo, hi)
         };
         let margin = 1e-3 * (hi - lo);
-        x <= lo + margin || x >= hi - margin
+        if x <= lo + margin {
+            Some(Bound::Lower)
+        } else if x >= hi - margin {
+            Some(Bound::Upper)
+        } else {
+            None
+        }
     }
+}
+
+/// A bound of a knob's search range ([`Knob::bound_hit`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Bound {
+    /// The lower bound.
+    Lower,
+    /// The upper bound.
+    Upper,
 }
 
 /// A reported parameter of a composite model (SI units), named as in the paper where it

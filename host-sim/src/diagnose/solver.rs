@@ -11,7 +11,8 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use super::catalogue::{
-    knobs_of, Determination, Effect, Estimate, Knob, Nonlinear, Param, Scales, MAX_PLASTIC_FRACTION,
+    knobs_of, Bound, Determination, Effect, Estimate, Knob, Nonlinear, Param, Scales,
+    MAX_PLASTIC_FRACTION,
 };
 use super::data::Prepared;
 use super::regressors::{design, mask_rows, touch_weight, Column, Design};
@@ -597,8 +598,7 @@ pub fn fit(
     let first = fit_on(data, effects, initial, global, effort, scale)?;
     if !effects.contains(&Effect::PlasticSet)
         || scale.observed_set <= scale.plastic_max
-        || first.nonlinear.plastic < 0.5 * scale.plastic_max
-        || !Knob::PlasticFraction.at_bound(first.nonlinear.plastic, &scale)
+        || Knob::PlasticFraction.bound_hit(first.nonlinear.plastic, &scale) != Some(Bound::Upper)
     {
         return Some(first);
     }
@@ -900,19 +900,18 @@ fn mark_undetermined(
         // A contact at the bound of a narrower range than the widest is where the wider
         // search did not lower the RSS (`widened_at_contact_bound`): a minimum, found.
         let widest = knob != Knob::ContactPosition || scale.contact_span >= MAX_CONTACT_SPAN;
-        // No set is a physical bound, not a search choice.
-        let physical = knob == Knob::PlasticFraction && nl.plastic < 0.5 * scale.plastic_max;
-        if widest && !physical && knob.at_bound(nl.get(knob), scale) {
-            mark(Param::of_knob(knob), Determination::AtSearchBound);
+        match knob.bound_hit(nl.get(knob), scale) {
+            // No set is a physical bound, not a search choice.
+            Some(Bound::Lower) if knob == Knob::PlasticFraction => {}
+            Some(_) if widest => mark(Param::of_knob(knob), Determination::AtSearchBound),
+            _ => {}
         }
     }
     if hold_damping {
         mark(Param::Lambda, Determination::Held);
     }
-    let (slowest, _, _) = Knob::RelaxationRate.range(scale);
     if effects.contains(&Effect::Relaxation)
-        && Knob::RelaxationRate.at_bound(nl.nu, scale)
-        && nl.nu < 2.0 * slowest
+        && Knob::RelaxationRate.bound_hit(nl.nu, scale) == Some(Bound::Lower)
     {
         mark(
             Param::RelaxedFraction,
