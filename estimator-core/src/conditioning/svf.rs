@@ -96,7 +96,14 @@ impl StateVariableFilter {
             self.reset_to(input);
         }
         let u = 0.5 * (input + self.previous_input);
-        self.x = self.ad * self.x + self.bd * u;
+        // x ← A_d·x + b_d·u, written out: nalgebra's 2×2 product is a loop on the
+        // Cortex-M4F (≈ 34 instructions a filter against ≈ 16). The same operations in
+        // the same order ((a00·x0 + a01·x1) + b0·u), so the same f32 results.
+        let (a, b, x) = (&self.ad, &self.bd, self.x);
+        self.x = Vector2::new(
+            a[(0, 0)] * x[0] + a[(0, 1)] * x[1] + b[0] * u,
+            a[(1, 0)] * x[0] + a[(1, 1)] * x[1] + b[1] * u,
+        );
         self.previous_input = input;
         // Finite exactly when v·0 sums to 0 (one comparison instead of two bit tests).
         if self.x[0] * 0.0 + self.x[1] * 0.0 != 0.0 {
