@@ -5,6 +5,7 @@ use nalgebra::{Vector2, Vector3};
 
 use crate::error::{check, non_negative, ConfigError};
 use crate::estimator::{finite_or, ContactSample, Estimator, SampleUpdate, Scaling};
+use crate::fmath;
 use crate::rls::{Rls, RlsConfig};
 use crate::Status;
 
@@ -212,7 +213,7 @@ fn hunt_crossley_to_si(
     lambda: f32,
     n: f32,
 ) -> HuntCrossleyParameters {
-    let l_pow_n = libm::expf(n * ln_length);
+    let l_pow_n = fmath::exp(n * ln_length);
     HuntCrossleyParameters {
         k: k * s.force_n / l_pow_n,
         lambda: lambda * s.force_n / (l_pow_n * s.length_m),
@@ -345,8 +346,8 @@ impl Estimator for HuntCrossleyEstimator {
                 status: Status::GUARD_DEPTH,
             };
         }
-        let ln_d = libm::logf(d);
-        let d_pow_n = libm::expf(self.exponent() * ln_d);
+        let ln_d = fmath::ln(d);
+        let d_pow_n = fmath::exp(self.exponent() * ln_d);
         let phi1 = Vector2::new(d_pow_n, d_pow_n * v);
         let predicted = self.gamma1.predict(&phi1);
         let abs_error_n = (f - predicted).abs() * s.force_n;
@@ -375,7 +376,7 @@ impl Estimator for HuntCrossleyEstimator {
             } else {
                 impedance
             };
-            let y2 = libm::logf(f / damping_part);
+            let y2 = fmath::ln(f / damping_part);
             let beta2 = self.config.stage2.forgetting.beta(abs_error_n);
             let phi2 = Vector2::new(self.intercept_regressor, ln_d);
             status |= self.gamma2.update(&phi2, y2, beta2).status;
@@ -612,9 +613,9 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
                 status,
             };
         }
-        let ln_d = libm::logf(d);
+        let ln_d = fmath::ln(d);
         let (k, lambda, n) = self.internal();
-        let predicted = libm::expf(n * ln_d) * (k + lambda * v).max(0.0);
+        let predicted = fmath::exp(n * ln_d) * (k + lambda * v).max(0.0);
         if f <= self.min_force {
             status |= Status::GUARD_FORCE;
         } else {
@@ -637,7 +638,7 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
             // the turn of a constant-speed stroke made the update diverge.
             self.smoothed_ratio += (th[1] - self.smoothed_ratio) / RATIO_SMOOTHING_UPDATES;
             let u = (self.smoothed_ratio * v).clamp(-CORRECTED_RATIO, CORRECTED_RATIO);
-            let y = libm::logf(f) - (libm::log1pf(u) - u);
+            let y = fmath::ln(f) - (libm::log1pf(u) - u);
             let weight = match self.config.weighting {
                 LogWeighting::Uniform => 1.0,
                 LogWeighting::Force => f,

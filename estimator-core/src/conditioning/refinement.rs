@@ -14,7 +14,7 @@
 //! [`OnsetPair::contact_point`], evaluated whenever the caller's exponent changes.
 
 use crate::error::ConfigError;
-use crate::fmath::{max, min};
+use crate::fmath::{self, max, min};
 
 /// Configuration of [`OnsetRefiner`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -102,7 +102,7 @@ impl OnsetPair {
         let x2 = self.high.position_m;
         // (F2/F1)^(1/n) as one expf of the pair's ln(F2/F1): a sixth of powf on the
         // Cortex-M4F.
-        let r = libm::expf(self.ln_force_ratio / exponent);
+        let r = fmath::exp(self.ln_force_ratio / exponent);
         let candidate = x1 - (x2 - x1) / (r - 1.0);
         if candidate.is_finite() && candidate < provisional_m && candidate > x1 - 5.0 * (x2 - x1) {
             max(candidate, min(free_space_min_m, provisional_m))
