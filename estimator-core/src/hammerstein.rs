@@ -298,7 +298,7 @@ impl<const R: usize, const NP: usize> Estimator for HammersteinEstimator<R, NP> 
         let phi2_lp = Self::regressor(&self.past_force_lp, &self.past_elastic_lp);
         let y2 = self.force_lp - self.elastic_lp - self.nominal.dot(&phi2_lp);
         let beta = self.config.filter_stage.forgetting.beta(abs_error_n);
-        status |= self.filter.update(&phi2_lp, y2, beta).status;
+        status |= self.filter.update_inline(&phi2_lp, y2, beta).status;
         Self::push(&mut self.past_force, f);
         Self::push(&mut self.past_elastic, fe);
         Self::push(&mut self.past_force_lp, self.force_lp);

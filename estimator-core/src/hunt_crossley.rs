@@ -307,7 +307,9 @@ impl HuntCrossleyEstimator {
     }
 
     /// Holds the current estimate unless its SI values do not fit in f32 (`NONPHYSICAL`).
-    /// Within [`certainly_finite_bounds`] they fit without converting.
+    /// Within [`certainly_finite_bounds`] they fit without converting. Inline in every
+    /// update (the 1 kHz path); the conversion beyond the bounds is a call of its own.
+    #[inline(always)]
     fn refresh(&mut self) -> Status {
         let th = self.gamma1.theta();
         let n = self.exponent();
@@ -316,15 +318,20 @@ impl HuntCrossleyEstimator {
             && th[1].abs() <= self.finite_bounds.1
             && n >= g.min_exponent
             && n <= g.max_exponent;
-        if certain
-            || hunt_crossley_to_si(&self.config.scaling, self.ln_length, th[0], th[1], n)
-                .is_finite()
-        {
+        if certain || self.converts_to_finite_si(th[0], th[1], n) {
             self.held_internal = [th[0], th[1], n];
             Status::empty()
         } else {
             Status::NONPHYSICAL
         }
+    }
+
+    /// Whether the internal (k_s, λ_s, n) have finite SI values: [`Self::refresh`] beyond
+    /// [`certainly_finite_bounds`], rare after the start-up.
+    #[inline(never)]
+    #[cold]
+    fn converts_to_finite_si(&self, k: f32, lambda: f32, n: f32) -> bool {
+        hunt_crossley_to_si(&self.config.scaling, self.ln_length, k, lambda, n).is_finite()
     }
 }
 
@@ -354,7 +361,7 @@ impl Estimator for HuntCrossleyEstimator {
 
         // Γ1: k, λ given n̂ (eq. 25, 30).
         let beta1 = self.config.stage1.forgetting.beta(abs_error_n);
-        let mut status = self.gamma1.update(&phi1, f, beta1).status;
+        let mut status = self.gamma1.update_inline(&phi1, f, beta1).status;
 
         // Γ2: n given k̂, λ̂ (eq. 26, 31), with the guards the logarithms need.
         let th1 = self.gamma1.theta();
@@ -379,7 +386,7 @@ impl Estimator for HuntCrossleyEstimator {
             let y2 = fmath::ln(f / damping_part);
             let beta2 = self.config.stage2.forgetting.beta(abs_error_n);
             let phi2 = Vector2::new(self.intercept_regressor, ln_d);
-            status |= self.gamma2.update(&phi2, y2, beta2).status;
+            status |= self.gamma2.update_inline(&phi2, y2, beta2).status;
             let g = self.config.guards;
             let mut th2 = *self.gamma2.theta();
             if th2[1] < g.min_exponent || th2[1] > g.max_exponent {
