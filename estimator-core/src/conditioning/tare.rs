@@ -24,7 +24,7 @@
 //! is raised on every sample.
 
 use crate::error::{check, ConfigError};
-use crate::fmath::{max, min};
+use crate::fmath::{max, max_finite, min, min_finite};
 
 /// What is known of the force offset before the first sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -195,8 +195,9 @@ impl FlatStretch {
         self.sum_f += f;
         self.sum_xx += x * x;
         self.sum_xf += x * f;
-        self.min_position_m = min(self.min_position_m, position_m);
-        self.max_position_m = max(self.max_position_m, position_m);
+        // Positions are finite (see `Tare::update`): no NaN tests.
+        self.min_position_m = min_finite(self.min_position_m, position_m);
+        self.max_position_m = max_finite(self.max_position_m, position_m);
     }
 
     fn travel_m(&self) -> f32 {
@@ -383,7 +384,7 @@ impl ForceTare {
             }
         }
         if in_contact {
-            self.lowest_in_contact_n = min(self.lowest_in_contact_n, force_n);
+            self.lowest_in_contact_n = min_finite(self.lowest_in_contact_n, force_n);
         }
         let band = max(
             self.config.flat_band_sigmas * self.noise_n(),
