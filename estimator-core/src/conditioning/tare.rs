@@ -336,14 +336,14 @@ impl ForceTare {
             // instructions, 5 for the step). During the start-up mean, and whenever
             // the step is not a positive finite number, the root itself.
             let step = 0.5 * (self.noise_n + self.variance_n2 / self.noise_n);
-            self.noise_n = if self.samples >= self.config.startup_samples
-                && step > 0.0
-                && step < f32::INFINITY
-            {
-                step
-            } else {
-                libm::sqrtf(max(self.variance_n2, 0.0))
-            };
+            // (Finite when step·0 is 0: a plain `< INFINITY` becomes integer bit tests on
+            // the Cortex-M4F.)
+            self.noise_n =
+                if self.samples >= self.config.startup_samples && step > 0.0 && step * 0.0 == 0.0 {
+                    step
+                } else {
+                    libm::sqrtf(max(self.variance_n2, 0.0))
+                };
         }
         self.previous_n = [self.previous_n[1], force_n];
     }
