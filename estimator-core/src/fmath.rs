@@ -57,7 +57,7 @@ pub(crate) fn max_finite(x: f32, y: f32) -> f32 {
     }
 }
 
-/// ln x \[same unit as `libm::logf`\]: bit-identical to `libm::logf(x)` for every x.
+/// The natural logarithm of `x`: bit-identical to `libm::logf(x)` for every x.
 #[inline(always)]
 pub(crate) fn ln(x: f32) -> f32 {
     const LN2_HI: f32 = f32::from_bits(0x3f31_7180); // 6.9313812256e-1
@@ -86,7 +86,7 @@ pub(crate) fn ln(x: f32) -> f32 {
     s * (hfsq + r) + dk * LN2_LO - hfsq + f + dk * LN2_HI
 }
 
-/// e^x: bit-identical to `libm::expf(x)` for every x.
+/// e^`x`: bit-identical to `libm::expf(x)` for every x.
 #[inline(always)]
 pub(crate) fn exp(x: f32) -> f32 {
     const LN2_HI: f32 = f32::from_bits(0x3f31_7200); // 6.9314575195e-1
