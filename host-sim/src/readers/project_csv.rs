@@ -13,7 +13,9 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::error::{ReadError, ReadErrorKind};
-use super::text::{check_row_length, find_columns, parse_field, CsvLines, Samples, SegmentRuns};
+use super::text::{
+    check_row_length, find_columns, parse_field, CsvLines, Samples, SegmentRuns, SliceLines,
+};
 use crate::record::{Format, Record};
 
 const COLUMNS: [&str; 3] = ["time_s", "position_m", "force_n"];
@@ -36,13 +38,17 @@ struct Layout<'p> {
     header_line: usize,
 }
 
-/// The rows of one piece of a block, parsed: up to its first malformed row, whose error
-/// is kept for when the rows before it have been checked. Reused from block to block (no
-/// fresh pages for every block's rows).
+/// The rows of one piece of a block, parsed and checked ([`Samples::check`], each against
+/// the row before it in the piece): up to its first malformed row, whose error is kept
+/// for when the rows before it have been added. Reused from block to block (no fresh
+/// pages for every block's rows).
 #[derive(Default)]
 struct Piece {
-    /// Line and (time, position, force) of each row.
-    rows: Vec<(usize, [f64; 3])>,
+    time: Vec<f64>,
+    position: Vec<f64>,
+    force: Vec<f64>,
+    /// Lines of the first and the last row.
+    lines: Option<(usize, usize)>,
     /// `segment` labels back to back, and where each row's ends.
     labels: Vec<u8>,
     label_ends: Vec<usize>,
@@ -51,11 +57,14 @@ struct Piece {
 
 impl Piece {
     /// Parses `bytes`, the file's lines after line `after`, in place of what it held.
-    fn parse(&mut self, bytes: &[u8], after: usize, layout: Layout<'_>) {
-        self.rows.clear();
+    fn parse(&mut self, bytes: &[u8], after: usize, layout: Layout<'_>, samples: &Samples<'_>) {
+        for column in [&mut self.time, &mut self.position, &mut self.force] {
+            column.clear();
+        }
+        self.lines = None;
         self.labels.clear();
         self.label_ends.clear();
-        self.error = self.parse_rows(bytes, after, layout).err();
+        self.error = self.parse_rows(bytes, after, layout, samples).err();
     }
 
     fn parse_rows(
@@ -63,17 +72,26 @@ impl Piece {
         bytes: &[u8],
         after: usize,
         layout: Layout<'_>,
+        samples: &Samples<'_>,
     ) -> Result<(), ReadError> {
         let Layout { path, .. } = layout;
-        let mut rows = CsvLines::after_line(bytes, after);
-        // Reading from memory cannot fail.
-        while rows.advance().unwrap_or(false) {
+        let mut rows = SliceLines::after_line(bytes, after);
+        while rows.advance() {
             let line = rows.line_number();
             check_row_length(path, line, rows.len(), layout.width, layout.header_line)?;
             let t = parse_field(path, line, "time_s", rows.field(layout.time))?;
             let x = parse_field(path, line, "position_m", rows.field(layout.position))?;
             let f = parse_field(path, line, "force_n", rows.field(layout.force))?;
-            self.rows.push((line, [t, x, f]));
+            let previous = self
+                .time
+                .last()
+                .copied()
+                .zip(self.lines.map(|(_, last)| last));
+            samples.check(line, [t, x, f], previous)?;
+            self.time.push(t);
+            self.position.push(x);
+            self.force.push(f);
+            self.lines = Some((self.lines.map_or(line, |(first, _)| first), line));
             if let Some(i) = layout.segment {
                 self.labels.extend_from_slice(rows.field(i));
                 self.label_ends.push(self.labels.len());
@@ -88,12 +106,13 @@ impl Piece {
         samples: &mut Samples<'_>,
         segments: &mut SegmentRuns,
     ) -> Result<(), ReadError> {
-        for (k, &(line, [t, x, f])) in self.rows.iter().enumerate() {
-            samples.push(line, t, x, f)?;
-            if let Some(&end) = self.label_ends.get(k) {
-                let start = if k == 0 { 0 } else { self.label_ends[k - 1] };
-                segments.push(&self.labels[start..end]);
-            }
+        if let Some(lines) = self.lines {
+            samples.extend_checked(lines, &self.time, &self.position, &self.force)?;
+        }
+        let mut start = 0;
+        for &end in &self.label_ends {
+            segments.push(&self.labels[start..end]);
+            start = end;
         }
         self.error.take().map_or(Ok(()), Err)
     }
@@ -115,19 +134,17 @@ fn read_block(
     let (mut start, mut line) = (0, after);
     while start < block.len() {
         let target = (start + block.len().div_ceil(PIECES)).min(block.len());
-        let end = block[target..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(block.len(), |i| target + i + 1);
+        let end = memchr::memchr(b'\n', &block[target..]).map_or(block.len(), |i| target + i + 1);
         pieces.push((&block[start..end], line));
-        line += block[start..end].iter().filter(|&&b| b == b'\n').count();
+        line += memchr::memchr_iter(b'\n', &block[start..end]).count();
         start = end;
     }
     let parsed = &mut parsed[..pieces.len()];
+    let checked: &Samples<'_> = samples;
     parsed
         .par_iter_mut()
         .zip(pieces)
-        .for_each(|(piece, (bytes, after))| piece.parse(bytes, after, layout));
+        .for_each(|(piece, (bytes, after))| piece.parse(bytes, after, layout, checked));
     for piece in parsed {
         piece.append(samples, segments)?;
     }

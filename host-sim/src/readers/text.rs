@@ -213,15 +213,16 @@ impl<'p> Samples<'p> {
         self.time_s.len()
     }
 
-    /// Adds one sample read on `line` (values already in SI and in the record's sign
-    /// convention). Rejects non-finite results of the conversion and a time that does
-    /// not exceed the previous one.
-    pub(crate) fn push(
-        &mut self,
+    /// Checks one sample read on `line` (values already in SI and in the record's sign
+    /// convention) against the record's invariants: every value finite and within the
+    /// estimator's range, and a time that exceeds the sample before, `previous` (time and
+    /// line), if there is one. Does not add it: a reader may check rows in parallel
+    /// pieces ([`Samples::extend_checked`]).
+    pub(crate) fn check(
+        &self,
         line: usize,
-        time_s: f64,
-        position_m: f64,
-        force_n: f64,
+        [time_s, position_m, force_n]: [f64; 3],
+        previous: Option<(f64, usize)>,
     ) -> Result<(), ReadError> {
         for (value, field, unit) in [
             (time_s, &self.time_field, "s"),
@@ -260,24 +261,76 @@ impl<'p> Samples<'p> {
                 ));
             }
         }
-        if let (Some(&previous), Some(previous_line)) = (self.time_s.last(), self.last_line) {
-            if time_s <= previous {
-                return Err(ReadError::at(
-                    self.path,
-                    line,
-                    Some(&self.time_field),
-                    ReadErrorKind::TimeNotIncreasing {
-                        value: time_s,
-                        previous,
-                        previous_line,
-                    },
-                ));
+        match previous {
+            Some((previous, previous_line)) if time_s <= previous => {
+                Err(self.time_not_increasing(line, time_s, previous, previous_line))
             }
+            _ => Ok(()),
         }
+    }
+
+    fn time_not_increasing(
+        &self,
+        line: usize,
+        value: f64,
+        previous: f64,
+        previous_line: usize,
+    ) -> ReadError {
+        ReadError::at(
+            self.path,
+            line,
+            Some(&self.time_field),
+            ReadErrorKind::TimeNotIncreasing {
+                value,
+                previous,
+                previous_line,
+            },
+        )
+    }
+
+    /// The last sample's time and line.
+    pub(crate) fn last(&self) -> Option<(f64, usize)> {
+        self.time_s.last().copied().zip(self.last_line)
+    }
+
+    /// Adds one sample read on `line` after [`Samples::check`]ing it.
+    pub(crate) fn push(
+        &mut self,
+        line: usize,
+        time_s: f64,
+        position_m: f64,
+        force_n: f64,
+    ) -> Result<(), ReadError> {
+        self.check(line, [time_s, position_m, force_n], self.last())?;
         self.time_s.push(time_s);
         self.position_m.push(position_m);
         self.force_n.push(force_n);
         self.last_line = Some(line);
+        Ok(())
+    }
+
+    /// Adds consecutive rows, read on lines `lines` (first, last), that were each
+    /// [`Samples::check`]ed against the row before them but the first; the first is
+    /// checked here against the last sample.
+    pub(crate) fn extend_checked(
+        &mut self,
+        (first_line, last_line): (usize, usize),
+        time_s: &[f64],
+        position_m: &[f64],
+        force_n: &[f64],
+    ) -> Result<(), ReadError> {
+        if let (Some(&first), Some((previous, previous_line))) = (time_s.first(), self.last()) {
+            if first <= previous {
+                return Err(self.time_not_increasing(first_line, first, previous, previous_line));
+            }
+        }
+        if time_s.is_empty() {
+            return Ok(());
+        }
+        self.time_s.extend_from_slice(time_s);
+        self.position_m.extend_from_slice(position_m);
+        self.force_n.extend_from_slice(force_n);
+        self.last_line = Some(last_line);
         Ok(())
     }
 
@@ -347,41 +400,100 @@ pub(crate) fn segments_from_labels(labels: &[Option<String>]) -> Vec<Segment> {
     segments
 }
 
-/// Comma-separated records streamed from a reader, one physical line at a time: blank
-/// lines and `#` comment lines skipped, fields split and unquoted by `csv-core` (the
-/// `csv` crate's parser; `""` inside quotes is a quote), then trimmed. A record is one
-/// physical line, which keeps the line numbers exact (the `csv` crate's own record
-/// positions count neither skipped blank lines nor comments). The line, field and
-/// field-end buffers are reused: no allocation per row.
-pub(crate) struct CsvLines<R> {
-    input: R,
+/// One physical line split into its fields by `csv-core` (the `csv` crate's parser; `""`
+/// inside quotes is a quote): the unquoted field bytes back to back and where each ends.
+/// The buffers are reused from line to line (no allocation per row).
+struct Fields {
     parser: csv_core::Reader,
-    line: Vec<u8>,
     /// Unquoted field bytes of the current record, back to back.
-    fields: Vec<u8>,
-    /// End offset in `fields` of each field.
+    bytes: Vec<u8>,
+    /// End offset in `bytes` of each field.
     ends: Vec<usize>,
     count: usize,
+}
+
+impl Fields {
+    fn new() -> Self {
+        Fields {
+            parser: csv_core::Reader::new(),
+            bytes: vec![0; 256],
+            ends: vec![0; 16],
+            count: 0,
+        }
+    }
+
+    /// Splits `line` (growing the buffers when a line needs more room).
+    fn split(&mut self, line: &[u8]) {
+        use csv_core::ReadRecordResult as R;
+        self.parser.reset();
+        let (mut consumed, mut written, mut count) = (0, 0, 0);
+        let mut finishing = false;
+        loop {
+            let input: &[u8] = if finishing { &[] } else { &line[consumed..] };
+            let (result, nin, nout, nend) =
+                self.parser
+                    .read_record(input, &mut self.bytes[written..], &mut self.ends[count..]);
+            // csv-core counts field ends from the start of the record, across calls.
+            consumed += nin;
+            written += nout;
+            count += nend;
+            match result {
+                R::InputEmpty => finishing = true,
+                R::OutputFull => self.bytes.resize(self.bytes.len() * 2, 0),
+                R::OutputEndsFull => self.ends.resize(self.ends.len() * 2, 0),
+                R::Record | R::End => break,
+            }
+        }
+        self.count = count;
+    }
+
+    /// Field `i`, trimmed; empty past the end.
+    fn field(&self, i: usize) -> &[u8] {
+        if i >= self.count {
+            return &[];
+        }
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        self.bytes[start..self.ends[i]].trim_ascii()
+    }
+}
+
+/// Where the record of physical line `number` (1-based) lies in `line`: without its line
+/// break, and without a byte-order mark on line 1; `None` when it is blank or a `#`
+/// comment.
+fn record_range(line: &[u8], number: usize) -> Option<std::ops::Range<usize>> {
+    let mut end = line.len();
+    while end > 0 && matches!(line[end - 1], b'\n' | b'\r') {
+        end -= 1;
+    }
+    let start = if number == 1 && line[..end].starts_with(b"\xef\xbb\xbf") {
+        3
+    } else {
+        0
+    };
+    let trimmed = line[start..end].trim_ascii();
+    (!trimmed.is_empty() && !trimmed.starts_with(b"#")).then_some(start..end)
+}
+
+/// Comma-separated records streamed from a reader, one physical line at a time: blank
+/// lines and `#` comment lines skipped, fields split and unquoted by `csv-core`, then
+/// trimmed. A record is one physical line, which keeps the line numbers exact (the `csv`
+/// crate's own record positions count neither skipped blank lines nor comments). The line
+/// and field buffers are reused: no allocation per row.
+pub(crate) struct CsvLines<R> {
+    input: R,
+    line: Vec<u8>,
+    fields: Fields,
     /// Physical line number of the current record (1-based).
     number: usize,
 }
 
 impl<R: std::io::BufRead> CsvLines<R> {
     pub(crate) fn new(input: R) -> Self {
-        Self::after_line(input, 0)
-    }
-
-    /// Records of `input` taken as the file's lines after line `number` (a piece of a
-    /// file split at line breaks): line numbers go on from there.
-    pub(crate) fn after_line(input: R, number: usize) -> Self {
         CsvLines {
             input,
-            parser: csv_core::Reader::new(),
             line: Vec::with_capacity(256),
-            fields: vec![0; 256],
-            ends: vec![0; 16],
-            count: 0,
-            number,
+            fields: Fields::new(),
+            number: 0,
         }
     }
 
@@ -398,50 +510,13 @@ impl<R: std::io::BufRead> CsvLines<R> {
                 return Ok(false);
             }
             self.number += 1;
-            while matches!(self.line.last(), Some(b'\n' | b'\r')) {
-                self.line.pop();
-            }
-            if self.number == 1 && self.line.starts_with(b"\xef\xbb\xbf") {
-                self.line.drain(..3);
-            }
-            let trimmed = self.line.trim_ascii();
-            if trimmed.is_empty() || trimmed.starts_with(b"#") {
-                continue;
-            }
-            self.split();
-            return Ok(true);
-        }
-    }
-
-    /// Splits `line` into `fields`/`ends` (growing them when a line needs more room).
-    fn split(&mut self) {
-        use csv_core::ReadRecordResult as R;
-        self.parser.reset();
-        let (mut consumed, mut written, mut count) = (0, 0, 0);
-        let mut finishing = false;
-        loop {
-            let input: &[u8] = if finishing {
-                &[]
-            } else {
-                &self.line[consumed..]
-            };
-            let (result, nin, nout, nend) = self.parser.read_record(
-                input,
-                &mut self.fields[written..],
-                &mut self.ends[count..],
-            );
-            // csv-core counts field ends from the start of the record, across calls.
-            consumed += nin;
-            written += nout;
-            count += nend;
-            match result {
-                R::InputEmpty => finishing = true,
-                R::OutputFull => self.fields.resize(self.fields.len() * 2, 0),
-                R::OutputEndsFull => self.ends.resize(self.ends.len() * 2, 0),
-                R::Record | R::End => break,
+            if let Some(record) = record_range(&self.line, self.number) {
+                self.line.truncate(record.end);
+                self.line.drain(..record.start);
+                self.fields.split(&self.line);
+                return Ok(true);
             }
         }
-        self.count = count;
     }
 
     /// The current record's whole line (without its line break).
@@ -456,23 +531,69 @@ impl<R: std::io::BufRead> CsvLines<R> {
 
     /// Number of fields of the current record.
     pub(crate) fn len(&self) -> usize {
-        self.count
+        self.fields.count
     }
 
     /// Field `i` of the current record, trimmed; empty past the end.
     pub(crate) fn field(&self, i: usize) -> &[u8] {
-        if i >= self.count {
-            return &[];
-        }
-        let start = if i == 0 { 0 } else { self.ends[i - 1] };
-        self.fields[start..self.ends[i]].trim_ascii()
+        self.fields.field(i)
     }
 
     /// Every field of the current record as text (UTF-8, else Latin-1).
     pub(crate) fn strings(&self) -> Vec<String> {
-        (0..self.count)
-            .map(|i| decode_field(self.field(i)))
+        (0..self.fields.count)
+            .map(|i| decode_field(self.fields.field(i)))
             .collect()
+    }
+}
+
+/// The records of whole lines already in memory, exactly as [`CsvLines`] reads them from
+/// a stream (the same lines skipped, split and numbered), without copying each line.
+pub(crate) struct SliceLines<'a> {
+    rest: &'a [u8],
+    fields: Fields,
+    number: usize,
+}
+
+impl<'a> SliceLines<'a> {
+    /// Records of `bytes` taken as a file's lines after line `number` (a piece of a file
+    /// split at line breaks): line numbers go on from there.
+    pub(crate) fn after_line(bytes: &'a [u8], number: usize) -> Self {
+        SliceLines {
+            rest: bytes,
+            fields: Fields::new(),
+            number,
+        }
+    }
+
+    /// Advances to the next record; `false` at the end of the bytes.
+    pub(crate) fn advance(&mut self) -> bool {
+        while !self.rest.is_empty() {
+            let end = memchr::memchr(b'\n', self.rest).map_or(self.rest.len(), |i| i + 1);
+            let (line, rest) = self.rest.split_at(end);
+            self.rest = rest;
+            self.number += 1;
+            if let Some(record) = record_range(line, self.number) {
+                self.fields.split(&line[record]);
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Physical line number (1-based) of the current record.
+    pub(crate) fn line_number(&self) -> usize {
+        self.number
+    }
+
+    /// Number of fields of the current record.
+    pub(crate) fn len(&self) -> usize {
+        self.fields.count
+    }
+
+    /// Field `i` of the current record, trimmed; empty past the end.
+    pub(crate) fn field(&self, i: usize) -> &[u8] {
+        self.fields.field(i)
     }
 }
 
@@ -491,6 +612,15 @@ pub(crate) fn parse_field(
     column: &str,
     bytes: &[u8],
 ) -> Result<f64, ReadError> {
+    // `fast-float2` accepts exactly the strings the standard parser accepts, with the same
+    // value (`the_byte_parser_agrees_with_the_standard_one`), and reads bytes: a field it
+    // parses to a finite value needs no UTF-8 check and no second trim. Anything else
+    // takes the standard path, which words the error.
+    if let Ok(value) = fast_float2::parse::<f64, _>(bytes) {
+        if value.is_finite() {
+            return Ok(value);
+        }
+    }
     match std::str::from_utf8(bytes) {
         Ok(text) => parse_cell(path, line, column, text),
         Err(_) => parse_cell(path, line, column, &decode_latin1(bytes)),
@@ -561,6 +691,116 @@ mod tests {
         assert_eq!(seen[2].0, 7);
         assert_eq!(seen[2].1, long);
         assert_eq!(seen[3], (8, vec!["open".to_owned()]));
+    }
+
+    /// The fast path of [`parse_field`] must not accept what the standard parser refuses,
+    /// nor read another value.
+    #[test]
+    fn the_byte_parser_agrees_with_the_standard_one() {
+        let mut cases: Vec<String> = [
+            "inf",
+            "-inf",
+            "+inf",
+            "infinity",
+            "Infinity",
+            "INF",
+            "infinit",
+            "infinityy",
+            "nan",
+            "NaN",
+            "-nan",
+            "+nan",
+            "nan(1)",
+            "nan1",
+            "1.",
+            "-1.",
+            ".5",
+            "+.5",
+            "-.5",
+            ".",
+            "+",
+            "-",
+            "",
+            "e5",
+            "1e",
+            "1e+",
+            "1e-",
+            "1e5",
+            "1E5",
+            "1e+5",
+            "1.e5",
+            ".e5",
+            "+e5",
+            "1e5.0",
+            "+1",
+            "++1",
+            "+-1",
+            "--1",
+            "1..2",
+            "1.2.3",
+            "0x10",
+            "1_0",
+            " 1",
+            "1 ",
+            "1d5",
+            "1f",
+            "1,5",
+            "0",
+            "-0",
+            "00012",
+            "1e400",
+            "-1e400",
+            "1e-400",
+            "4.9e-324",
+            "2.2250738585072014e-308",
+            "1.7976931348623157e308",
+            "1.7976931348623159e308",
+            "9007199254740993",
+            "1e0000000000000000000001",
+            "١",
+            "１",
+            "∞",
+            "1\u{a0}",
+        ]
+        .iter()
+        .map(|s| (*s).to_owned())
+        .collect();
+        // Numbers as loggers print them, and every spelling of a few awkward values.
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = f64::from_bits(x);
+            if v.is_finite() {
+                cases.extend([format!("{v}"), format!("{v:e}"), format!("{v:.6e}")]);
+                cases.push(format!("{:.4}", (x % 2_000_000) as f64 * 1e-3 - 1e3));
+            }
+        }
+        for case in &cases {
+            let standard = case.parse::<f64>().ok();
+            let fast = fast_float2::parse::<f64, _>(case.as_bytes()).ok();
+            match (standard, fast) {
+                (Some(a), Some(b)) => assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "{case:?}: {a} vs {b}"
+                ),
+                (None, Some(b)) => panic!("{case:?}: refused by std, read as {b}"),
+                _ => {}
+            }
+            let field = parse_field(Path::new("f.csv"), 1, "x", case.trim().as_bytes());
+            let cell = parse_cell(Path::new("f.csv"), 1, "x", case);
+            assert_eq!(
+                field
+                    .as_ref()
+                    .map(|v| v.to_bits())
+                    .map_err(ToString::to_string),
+                cell.as_ref()
+                    .map(|v| v.to_bits())
+                    .map_err(ToString::to_string),
+                "{case:?}"
+            );
+        }
     }
 
     #[test]
