@@ -54,6 +54,10 @@ pub fn contact_model(
 /// Simulated force \[N\] for each (depth \[m\], depth rate \[m/s\]); the model restarts from
 /// rest whenever `in_contact` goes from false to true (a new contact). Out of contact
 /// the model still advances (relaxation continues) but its force is reported as 0.
+///
+/// Each contact starts the model from rest, so the contacts are independent: they are
+/// simulated in parallel, each stretch from an onset to the next with a model of its own
+/// (the same numbers as one model stepped through the whole record).
 pub fn simulate_force(
     parameters: &AnyParameters,
     sample_time_s: f32,
@@ -61,17 +65,42 @@ pub fn simulate_force(
     rate_m_per_s: &[f64],
     in_contact: &[bool],
 ) -> Option<Vec<f64>> {
-    let mut model = contact_model(parameters, sample_time_s)?;
-    let mut out = Vec::with_capacity(depth_m.len());
-    let mut was_in_contact = false;
-    for i in 0..depth_m.len() {
-        if in_contact[i] && !was_in_contact {
-            model.reset();
+    use rayon::prelude::*;
+    // Fails here, before any work, if the parameters are not physical.
+    contact_model(parameters, sample_time_s)?;
+    let n = depth_m.len();
+    // Stretches of at least n/64 samples (a few per thread), each cut at a contact onset.
+    let least = n.div_ceil(64).max(1);
+    let mut cuts = vec![0];
+    for i in 1..n {
+        if in_contact[i] && !in_contact[i - 1] && i - cuts[cuts.len() - 1] >= least {
+            cuts.push(i);
         }
-        was_in_contact = in_contact[i];
-        let f = model.step(depth_m[i] as f32, rate_m_per_s[i] as f32);
-        out.push(if in_contact[i] { f64::from(f) } else { 0.0 });
     }
+    cuts.push(n);
+    let mut out = vec![0.0; n];
+    let mut stretches = Vec::with_capacity(cuts.len());
+    let mut rest = out.as_mut_slice();
+    for w in cuts.windows(2) {
+        let (stretch, tail) = rest.split_at_mut(w[1] - w[0]);
+        stretches.push((w[0], stretch));
+        rest = tail;
+    }
+    stretches.into_par_iter().for_each(|(start, stretch)| {
+        let Some(mut model) = contact_model(parameters, sample_time_s) else {
+            return;
+        };
+        let mut was_in_contact = false;
+        for (k, out) in stretch.iter_mut().enumerate() {
+            let i = start + k;
+            if in_contact[i] && !was_in_contact {
+                model.reset();
+            }
+            was_in_contact = in_contact[i];
+            let f = model.step(depth_m[i] as f32, rate_m_per_s[i] as f32);
+            *out = if in_contact[i] { f64::from(f) } else { 0.0 };
+        }
+    });
     Some(out)
 }
 
