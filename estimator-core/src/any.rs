@@ -393,6 +393,7 @@ impl Estimator for AnyEstimator {
     fn start_from(&mut self, parameters: &AnyParameters) {
         match (self, parameters) {
             (AnyEstimator::KelvinVoigt(e), AnyParameters::KelvinVoigt(p)) => e.start_from(p),
+            (AnyEstimator::Zener(e), AnyParameters::Zener(p)) => e.start_from(p),
             (AnyEstimator::HuntCrossley(e), AnyParameters::HuntCrossley(p)) => e.start_from(p),
             (AnyEstimator::HuntCrossleySingleStage(e), AnyParameters::HuntCrossley(p)) => {
                 e.start_from(p)

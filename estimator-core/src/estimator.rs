@@ -174,7 +174,7 @@ pub trait Estimator {
     /// whole-record fit or a material stored on the board: the estimate begins there and
     /// [`Estimator::reset`] returns there. Held parameters stay held; non-finite or
     /// non-positive values (where the model needs a logarithm) are ignored. The default
-    /// does nothing (Zener: its ARX coefficients are kept).
+    /// does nothing.
     fn start_from(&mut self, parameters: &Self::Parameters) {
         let _ = parameters;
     }

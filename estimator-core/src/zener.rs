@@ -228,10 +228,76 @@ impl Estimator for ZenerEstimator {
         self.previous_force = 0.0;
     }
 
+    /// Starts the ARX coefficients at the model `p`: θ = \[a, κ1, c\] with the pole
+    /// 1 − a·T = e^{−(κ1+κ2)·T/λ} (the relaxation rate at a held depth, mapped exactly as
+    /// [`ZenerEstimator`] maps it back), κ1, and c = κ∞·a, κ∞ = κ1κ2/(κ1 + κ2). Parameters
+    /// that are not all positive and finite are ignored.
+    fn start_from(&mut self, p: &ZenerParameters) {
+        let t = self.config.sample_time_s;
+        let unit = self.config.scaling.force_n / self.config.scaling.length_m;
+        let (k1, k2, lambda) = (p.kappa1, p.kappa2, p.lambda);
+        if !(k1 > 0.0 && k2 > 0.0 && lambda > 0.0) {
+            return;
+        }
+        let a_euler = -libm::expm1f(-(k1 + k2) / lambda * t) / t;
+        let k_inf = k1 * k2 / (k1 + k2);
+        let theta = Vector3::new(a_euler, k1 / unit, k_inf / unit * a_euler);
+        if let Some(physical) = self.map(&theta) {
+            self.rls.restart_from(theta);
+            self.physical = physical;
+        }
+    }
+
     fn reset(&mut self) {
         self.rls.reset();
         self.previous_depth = 0.0;
         self.previous_force = 0.0;
-        self.physical = ZenerParameters::default();
+        // The start ([`Estimator::start_from`]) if there is one, else no estimate yet.
+        self.physical = self.map(self.rls.theta()).unwrap_or_default();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A start from known parameters (a host's whole-record fit) is the estimate until
+    /// data move it, and where a reset returns; unphysical ones are ignored.
+    #[test]
+    fn starts_from_known_parameters_and_resets_there() {
+        let start = ZenerParameters {
+            kappa1: 3.2e4,
+            kappa2: 3.4e4,
+            lambda: 6.0e4,
+        };
+        let mut e = ZenerEstimator::try_new(ZenerConfig::default()).unwrap();
+        assert_eq!(e.parameters(), ZenerParameters::default());
+        e.start_from(&start);
+        let close = |p: ZenerParameters| {
+            [
+                (p.kappa1, start.kappa1),
+                (p.kappa2, start.kappa2),
+                (p.lambda, start.lambda),
+            ]
+            .iter()
+            .all(|(a, b)| ((a - b) / b).abs() < 1e-3)
+        };
+        assert!(close(e.parameters()), "{:?}", e.parameters());
+        for i in 0..200 {
+            let d = 1e-3 * (i as f32 * 0.05).sin().abs();
+            e.update(&ContactSample {
+                depth_m: d,
+                depth_rate_m_per_s: 0.0,
+                force_n: 50.0 * d,
+            });
+        }
+        e.reset();
+        assert!(close(e.parameters()), "{:?}", e.parameters());
+        let mut fresh = ZenerEstimator::try_new(ZenerConfig::default()).unwrap();
+        fresh.start_from(&ZenerParameters {
+            kappa2: -1.0,
+            ..start
+        });
+        assert_eq!(fresh.parameters(), ZenerParameters::default());
     }
 }

@@ -235,10 +235,22 @@ fn initial_parameters(
 ) -> AnyParameters {
     let damping = held.get("lambda").copied().unwrap_or(law.damping()) as f32;
     match model {
-        ModelKind::KelvinVoigt | ModelKind::Zener => {
+        ModelKind::KelvinVoigt => {
             AnyParameters::KelvinVoigt(estimator_core::kelvin_voigt::KelvinVoigtParameters {
                 kappa: law.stiffness as f32,
                 lambda: damping,
+            })
+        }
+        ModelKind::Zener => {
+            // Fig. 2b: κ1 the instantaneous spring, κ∞ = κ1κ2/(κ1 + κ2) the relaxed one, and
+            // the relaxation rate at a held depth (κ1 + κ2)/λ. (A fit that is not a Zener
+            // material, κ∞ ≥ κ1 or no relaxation, gives a non-positive value: no start.)
+            let (k1, k_inf) = (law.instantaneous_stiffness(), law.stiffness);
+            let k2 = k1 * k_inf / (k1 - k_inf);
+            AnyParameters::Zener(estimator_core::zener::ZenerParameters {
+                kappa1: k1 as f32,
+                kappa2: k2 as f32,
+                lambda: ((k1 + k2) / law.rate_per_s) as f32,
             })
         }
         ModelKind::HuntCrossley | ModelKind::HuntCrossleySingleStage => {
