@@ -818,10 +818,10 @@ mod tests {
     }
 
     /// A steep power law (n = 2) under 0.45 N of noise rises within 3 noise deviations of
-    /// zero over a fifth of
-    /// its depth: those light-touch points count as free space, and the law's own rise
-    /// there is not a sign that the record never leaves contact (it was, before the trend
-    /// behind the contact point was taken of the force the law leaves unexplained).
+    /// zero over a fifth of its depth: those light-touch points count as free space, and
+    /// the law's own rise there is not a sign that the record never leaves contact (it
+    /// was, before the trend behind the contact point was taken of the force the law
+    /// leaves unexplained).
     #[test]
     fn a_steep_law_s_light_touch_is_not_contact_the_fit_missed() {
         // At 303 Hz (every sample a point of the fit), strokes to 4 mm at 5, 2 and 18 mm/s
