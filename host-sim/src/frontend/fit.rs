@@ -135,7 +135,7 @@ impl LawFit {
                 .collect(),
             LawFamily::HuntCrossley => g.iter().zip(rate_m_per_s).map(|(g, v)| g * v).collect(),
             LawFamily::Zener | LawFamily::PowerLawRelaxation => {
-                relaxing(&g, time_s, self.rate_per_s)
+                relaxing_in_contact(&g, time_s, self.rate_per_s)
             }
         };
         g.iter()
@@ -173,6 +173,22 @@ pub fn relaxing(g: &[f64], time_s: &[f64], rate_per_s: f64) -> Vec<f64> {
         out.push(z);
     }
     out
+}
+
+/// [`relaxing`] where the probe is in contact (g > 0) and 0 out of it: the state keeps
+/// relaxing behind the contact point, but a material the probe has left pushes on nothing
+/// (the core's QLV and the plants gate the same way). Ungated, a retract at the approach
+/// speed from a relaxed hold would leave the law pulling on the probe through the whole
+/// free space after it, and the fit would shift the offset and the contact point to meet
+/// that pull.
+fn relaxing_in_contact(g: &[f64], time_s: &[f64], rate_per_s: f64) -> Vec<f64> {
+    let mut h = relaxing(g, time_s, rate_per_s);
+    for (h, g) in h.iter_mut().zip(g) {
+        if *g <= 0.0 {
+            *h = 0.0;
+        }
+    }
+    h
 }
 
 /// The fitting problem on one axis orientation, in scaled units (length L, force S) so
@@ -266,6 +282,10 @@ pub const MAX_EVALUATIONS: u64 = 60;
 /// Local minima of the grid refined on all points.
 pub const REFINED_MINIMA: usize = 3;
 
+/// Most rounds of a relaxation law's refinement (rate, then contact point and exponent);
+/// it stops earlier where a round lowers the RSS by less than 10⁻⁴ of itself.
+pub const RELAXATION_ROUNDS: usize = 8;
+
 /// The nonlinear parameters of one evaluation: scaled contact point, exponent, rate.
 #[derive(Debug, Clone, Copy)]
 struct Knobs {
@@ -357,6 +377,7 @@ impl<'a> Problem<'a> {
                 .map(|(g, v)| if *g > 0.0 { *v } else { 0.0 })
                 .collect(),
             LawFamily::HuntCrossley => g.iter().zip(&self.v).map(|(g, v)| g * v).collect(),
+            // (Not gated by contact: see the free points of `Problem::solve_columns`.)
             LawFamily::Zener | LawFamily::PowerLawRelaxation => relaxing(&g, &self.t, k.nu),
         };
         (g, h)
@@ -451,17 +472,52 @@ impl<'a> Problem<'a> {
         mask: [bool; 2],
     ) -> Option<(Vector3<f64>, f64)> {
         let mut result = self.solve_sums(full, mask)?;
-        if !self.family.has_relaxation() {
-            let theta = result.0;
-            let (a, b) = (
+        let relaxation = self.family.has_relaxation();
+        // Tested where needed, not stored: this runs for every exponent the searches try.
+        // A memoryless law pulls only while the probe retracts faster than the material
+        // recovers, and the probe has then left it: its points are free. A relaxation law's
+        // state pulls after any retract from a relaxed hold, through the rest of the
+        // retract and behind the contact point until it has relaxed: the probe has left
+        // the surface there too, and those points are free (the unilateral, gated law of
+        // the core's QLV); which points pull depends on the fit, hence a few rounds.
+        let unconstrained = result;
+        let rounds = if relaxation { 4 } else { 1 };
+        let mut previous: Option<Vec<bool>> = None;
+        let coefficients = |theta: &Vector3<f64>| {
+            (
                 if mask[0] { theta[1] } else { 0.0 },
                 if mask[1] { theta[2] } else { 0.0 },
-            );
-            // Tested where needed, not stored: this runs for every exponent the searches try.
-            let free = |i: usize| g[i] > 0.0 && a * g[i] + b * h[i] < 0.0;
-            if (0..g.len()).any(free) {
-                let sums = self.normal_sums(g, h, free);
-                result = self.solve_sums(&sums, mask)?;
+            )
+        };
+        for _ in 0..rounds {
+            let (a, b) = coefficients(&result.0);
+            let free: Vec<bool> = (0..g.len())
+                .map(|i| (relaxation || g[i] > 0.0) && a * g[i] + b * h[i] < 0.0)
+                .collect();
+            if previous.as_ref() == Some(&free) || !free.contains(&true) {
+                break;
+            }
+            let sums = self.normal_sums(g, h, |i| free[i]);
+            result = self.solve_sums(&sums, mask)?;
+            previous = Some(free);
+        }
+        // Unless the record itself pulls there: adhesion on an AFM retract, not a law of
+        // the front end. The law's pull then stands in for it, as it did before the law
+        // was made unilateral; freed, the contact point would move out to where the
+        // adhesion ends. Decided once for the record, against the unilateral fit's offset
+        // (the pulling law's own offset would be raised by the pull it fits) and over all
+        // the freed points (point by point, noise below the offset would be kept and the
+        // law rewarded for pulling on it): their mean force nearer the pull than the offset.
+        if let (true, Some(free)) = (relaxation, &previous) {
+            let (a, b) = coefficients(&result.0);
+            let f0 = self.fixed_offset().unwrap_or(result.0[0]);
+            let (mut pull, mut record) = (0.0, 0.0);
+            for i in (0..g.len()).filter(|&i| free[i]) {
+                pull += a * g[i] + b * h[i];
+                record += self.f[i] - f0;
+            }
+            if record < 0.5 * pull {
+                result = unconstrained;
             }
         }
         if let Some(f0) = self.fixed_offset() {
@@ -615,7 +671,16 @@ impl<'a> Problem<'a> {
             .par_iter()
             .map(|&(_, uc0, n0)| {
                 let (mut uc, mut n, mut nu_k) = (uc0, n0, nu);
-                let rounds = if self.family.has_relaxation() { 2 } else { 1 };
+                // Rate, then contact point and exponent, in turn: the exponent and the rate
+                // trade along a valley (a relaxing onset looks stiffer), which two rounds
+                // did not descend (the helper's slow-retract QLV records: n 6 %, ν 20-48 %
+                // short, at an RSS up to 1.8× the truth's), hence rounds until the RSS stops
+                // falling by 10⁻⁴ of itself.
+                let rounds = if self.family.has_relaxation() {
+                    RELAXATION_ROUNDS
+                } else {
+                    1
+                };
                 let exponents = |n: f64| {
                     (
                         (n - 0.5).max(EXPONENT_RANGE.0),
@@ -630,6 +695,7 @@ impl<'a> Problem<'a> {
                 let start = (rss_start, uc0, n_start, nu_k);
                 let mut rss = f64::INFINITY;
                 for _ in 0..rounds {
+                    let before = rss;
                     if self.family.has_relaxation() {
                         nu_k = self.best_rate(Knobs { uc, n, nu: nu_k }, RATE_ITERATIONS).0;
                     }
@@ -641,6 +707,9 @@ impl<'a> Problem<'a> {
                         });
                     uc = u_best;
                     (n, rss) = self.best_exponent(Knobs { uc, n, nu: nu_k }, bracket, exponent);
+                    if rss > before * (1.0 - 1e-4) {
+                        break;
+                    }
                 }
                 if rss <= start.0 {
                     (rss, uc, n, nu_k)
@@ -848,6 +917,55 @@ mod tests {
             "{fit:?}"
         );
         assert!((fit.contact_m - 1e-3).abs() < 3e-6, "{fit:?}");
+        assert!((fit.offset_n - 0.2).abs() < 1e-3, "{fit:?}");
+    }
+
+    #[test]
+    fn a_retract_at_the_approach_speed_leaves_a_relaxed_material_behind() {
+        // The core's QLV (F_e = 5e4·δ^1.5, half of it relaxing at 1 /s), pressed 3 mm in
+        // 0.3 s, held 5 s and retracted at the pressing speed to 0.5 mm behind the
+        // surface, then 2 s of free space. Relaxed, the material pushes with
+        // F_e − ½·F_e(3 mm) on the way back and loses the probe at about a third of the
+        // depth: the law's pull over the rest of the retract and the free space after it
+        // is not in the record (the fit's offset and contact point had moved to meet it:
+        // the helper's ramp-hold-retract records were 0 of 8 within 5 %).
+        use estimator_core::models::{ContactModel, ElasticResponse, QuasiLinearViscoelastic};
+        let dt = 1e-3;
+        let t: Vec<f64> = (0..8_300).map(|i| i as f64 * dt).collect();
+        let depth = |t: f64| {
+            let pressed = 3.5e-3 * (t / 0.35).clamp(0.0, 1.0);
+            let retracted = 3.5e-3 * ((t - 5.35) / 0.35).clamp(0.0, 1.0);
+            -0.5e-3 + pressed - retracted
+        };
+        let mut qlv = QuasiLinearViscoelastic::<1>::try_new(
+            ElasticResponse::PowerLaw {
+                gamma1: 5e4,
+                gamma2: 1.5,
+            },
+            [0.5],
+            [1.0],
+            dt as f32,
+        )
+        .unwrap();
+        let f: Vec<f64> = t
+            .iter()
+            .map(|&t| 0.2 + f64::from(qlv.step(depth(t) as f32, 0.0)))
+            .collect();
+        let x: Vec<f64> = t.iter().map(|&t| depth(t) + 1e-3).collect();
+        // Most of the retract has no force: the probe left the surface.
+        let retract_free = (5_350..5_700).filter(|&i| f[i] == 0.2).count();
+        assert!(retract_free > 150, "{retract_free}");
+        let s = Series::new(&t, &x, &f);
+        let fit = Problem::new(&s, 1.0, LawFamily::PowerLawRelaxation, OffsetTerm::Free)
+            .fit()
+            .unwrap();
+        assert!((fit.exponent - 1.5).abs() < 0.015, "{fit:?}");
+        assert!((fit.rate_per_s - 1.0).abs() < 0.03, "{fit:?}");
+        assert!(
+            (fit.instantaneous_stiffness() / 5e4 - 1.0).abs() < 0.02,
+            "{fit:?}"
+        );
+        assert!((fit.contact_m - 1e-3).abs() < 5e-6, "{fit:?}");
         assert!((fit.offset_n - 0.2).abs() < 1e-3, "{fit:?}");
     }
 
