@@ -54,27 +54,30 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
     (MaterialKind::Qlv, &["power_law_stiffness", "relaxation"]),
 ];
 
-/// Rows below the issue's rates on the sweep of 2026-11-23 evening (seeds 3000-3019;
-/// README table): the sweep prints them and asserts only the guarantees there (no error,
-/// no effect the record cannot identify), not the rates. Issue 13 stays open on them:
-/// - Kelvin-Voigt (nothing to add) on five structures: 14-18 of 20 clean (a delay, an
-///   exponential law or a contact shift takes up the misfit the smoothed block rate
-///   leaves at a sharp reversal or impact). (On one constant-speed ramp it was 2/20, the
+/// Rows below the issue's rates on the sweep of 2026-11-24 (seeds 3000-3019; README
+/// table): the sweep prints them and asserts only the guarantees there (no error, no
+/// effect the record cannot identify), not the rates. Issue 13 stays open on them:
+/// - Kelvin-Voigt (nothing to add) on four structures: 14-18 of 20 clean (a delay, an
+///   exponential law or a contact shift takes up a misfit at a sharp reversal or impact;
+///   a damping rate exact there, the chord of each block, was tried on 2026-11-24 and
+///   did not lower it on an independent generator's taps while it added Coulomb friction
+///   to 4 of 5 clean AFM records: the cause is not settled). (On one constant-speed ramp it was 2/20, the
 ///   damping's impact step λv read as a power law with n < 1 while the one-speed rule
 ///   held the baseline's damping at 0; with the damping fitted from that step, 19/20.)
 /// - Hunt-Crossley on ramp-and-hold: 8/20 (the damping alone, no law, in most misses);
 /// - power law + relaxation (the core's QLV) on one load/unload ramp: 9/20 (in 8 more
 ///   the plastic set is named with relaxation listed as indistinguishable from it).
 ///
-/// (Out of the list since the contact search continues past its bound,
+/// (Out of the list since an effect whose own parameter stays at its nested value is not
+/// named, 2026-11-24: Kelvin-Voigt on the chirp, 17/20 → 20/20. Out of the list since the
+/// contact search continues past its bound,
 /// `solver::widened_at_contact_bound`: the QLV rows on sines and chirps, 1-12/20 → 20/20
 /// (the relaxing onset had put the detector's point up to 23 % of the depth past the
 /// contact, beyond the search range, and an exponential law stood in for the power law
 /// from there), and every row that never leaves contact: 15-17/20 → 19-20/20, QLV
 /// 6/20 → 18/20.)
-const BELOW_TARGET: [(Structure, MaterialKind); 7] = [
+const BELOW_TARGET: [(Structure, MaterialKind); 6] = [
     (Structure::ContactSinesBrief, MaterialKind::KelvinVoigt),
-    (Structure::Chirp, MaterialKind::KelvinVoigt),
     (Structure::RampLoadUnload, MaterialKind::KelvinVoigt),
     (Structure::RampHold, MaterialKind::KelvinVoigt),
     (Structure::Taps, MaterialKind::KelvinVoigt),

@@ -195,6 +195,25 @@ pub enum Knob {
 }
 
 impl Knob {
+    /// The value at which the knob's effect adds nothing to the model it joins (the
+    /// nested model): n = 1 (the linear spring), q = 0 (plain damping), no delay, no
+    /// shift of the later contacts, no set. `None` where the effect's size is a linear
+    /// coefficient (relaxation, friction) or the nested model is a limit, not a value
+    /// (exponential stiffening as b → 0), and for the contact position, part of every
+    /// model.
+    pub(super) fn nested_value(self) -> Option<f64> {
+        match self {
+            Knob::Exponent => Some(1.0),
+            Knob::DampingExponent | Knob::Delay | Knob::ContactShift | Knob::PlasticFraction => {
+                Some(0.0)
+            }
+            Knob::ContactPosition
+            | Knob::StiffeningRate
+            | Knob::RelaxationRate
+            | Knob::SlipRate => None,
+        }
+    }
+
     /// Search bounds in the knob's units and whether to search on a log scale.
     pub(super) fn range(self, scale: &Scales) -> (f64, f64, bool) {
         let l = scale.depth_m;

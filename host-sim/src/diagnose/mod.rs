@@ -147,6 +147,9 @@ pub struct Candidate {
     pub significant: bool,
     /// Whether its parameters describe a passive material ([`physical`]).
     pub physical: bool,
+    /// Its own nonlinear parameter ended at the value that makes it the current model
+    /// (`Knob::nested_value`): never significant.
+    pub nested: bool,
 }
 
 /// An effect the record cannot tell apart from the one named.
@@ -644,5 +647,73 @@ mod tests {
         .err()
         .expect("an order-2 Hammerstein baseline is refused");
         assert!(error.to_string().contains("hammerstein2"), "{error}");
+    }
+
+    #[test]
+    fn an_effect_whose_parameter_stayed_at_its_nested_value_is_never_named() {
+        // Kelvin-Voigt taps (κ = 5e3 N/m, λ = 50 N·s/m) with a little noise: depth damping
+        // with q = 0 is the baseline itself, whatever its fit gains along the way.
+        let t: Vec<f64> = (0..6000).map(|i| i as f64 * 1e-3).collect();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                let phase = (t / 1.5).fract();
+                -0.5e-3 + 3.0e-3 * (1.0 - (2.0 * phase - 1.0).abs())
+            })
+            .collect();
+        let f: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| {
+                let v = (x[(i + 1).min(x.len() - 1)] - x[i.saturating_sub(1)]) / 2e-3;
+                let noise = 0.01 * ((i as f64 * 12.9898).sin() * 43_758.545).fract();
+                estimator_core::laws::unilateral(if d > 0.0 { 5e3 * d + 50.0 * v } else { 0.0 })
+                    + noise
+            })
+            .collect();
+        let data = data::prepare(
+            &t,
+            &x,
+            &f,
+            estimator_core::conditioning::ImpactConfig::default(),
+        )
+        .unwrap();
+        let baseline: BTreeSet<Effect> = BTreeSet::new();
+        let current = fit(
+            &data,
+            &baseline,
+            &Nonlinear::default(),
+            &knobs_of(&baseline),
+            Effort::FULL,
+        )
+        .unwrap();
+        let with: BTreeSet<Effect> = [Effect::DepthDependentDamping].into();
+        let candidate = |q: f64| {
+            let start = Nonlinear {
+                q,
+                ..current.nonlinear
+            };
+            let fitted = fit(&data, &with, &start, &knobs_of(&baseline), Effort::QUICK).unwrap();
+            let options = Options {
+                min_bic_drop: f64::NEG_INFINITY,
+                min_folds_better: 0,
+                min_cv_improvement: f64::NEG_INFINITY,
+                ..Options::default()
+            };
+            score(
+                Effect::DepthDependentDamping,
+                None,
+                fitted,
+                &current,
+                &options,
+                6.0,
+                None,
+            )
+        };
+        let nested = candidate(0.0);
+        assert!(nested.nested && !nested.significant, "{nested:?}");
+        // Anywhere else the acceptance rule decides (here: everything passes it).
+        let other = candidate(0.5);
+        assert!(!other.nested && other.significant, "{other:?}");
     }
 }

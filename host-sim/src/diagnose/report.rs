@@ -201,6 +201,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "yes"
             } else if !c.physical {
                 "no (nonphysical)"
+            } else if c.nested {
+                "no (its parameter stayed at the current model's value)"
             } else {
                 "no"
             },
