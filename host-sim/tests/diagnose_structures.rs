@@ -64,7 +64,7 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
 ///   to 4 of 5 clean AFM records: the cause is not settled). (On one constant-speed ramp it was 2/20, the
 ///   damping's impact step λv read as a power law with n < 1 while the one-speed rule
 ///   held the baseline's damping at 0; with the damping fitted from that step, 19/20.)
-/// - Hunt-Crossley on ramp-and-hold: 8/20 (the damping alone, no law, in most misses);
+/// - Hunt-Crossley on ramp-and-hold: 7/20 (the damping alone, no law, in most misses);
 /// - power law + relaxation (the core's QLV) on one load/unload ramp: 9/20 (in 8 more
 ///   the plastic set is named with relaxation listed as indistinguishable from it).
 ///

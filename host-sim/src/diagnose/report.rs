@@ -305,7 +305,7 @@ pub fn markdown(
     );
     let _ = writeln!(
         out,
-        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error is added, and the loop repeats (at most {} steps). At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
+        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error (by BIC where another accepted one's BIC is lower by more than that threshold) is added, and the loop repeats (at most {} steps). At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
         options.min_bic_drop,
         super::scoring::FOLDS,
         100.0 * options.min_cv_improvement,
