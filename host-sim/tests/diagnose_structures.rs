@@ -33,7 +33,7 @@ use std::collections::BTreeMap;
 
 use host_sim::diagnose::catalogue::Param;
 use host_sim::diagnose::Options;
-use host_sim::files::diagnose_file;
+use host_sim::files::{diagnose_file, FileDiagnosis};
 use host_sim::recordings::{generate, MaterialKind, Structure};
 use host_sim::setup::Overrides;
 use rand::rngs::StdRng;
@@ -116,6 +116,19 @@ struct Outcome {
     nrmse: f64,
 }
 
+/// Writes `csv` to `path` and diagnoses it as a user would (reader, front end, workflow;
+/// the format given, the defaults otherwise).
+fn diagnose_as_a_user(path: &std::path::Path, csv: &str) -> anyhow::Result<FileDiagnosis> {
+    std::fs::write(path, csv).expect("write the log");
+    diagnose_file(
+        path,
+        "csv",
+        &Options::default(),
+        &Overrides::default(),
+        None,
+    )
+}
+
 fn diagnose_log(
     structure: Structure,
     material: MaterialKind,
@@ -124,14 +137,7 @@ fn diagnose_log(
 ) -> Outcome {
     let r = generate(structure, material, seed);
     let path = dir.join(format!("{}-{material:?}-{seed}.csv", structure.name()));
-    std::fs::write(&path, r.to_csv()).expect("write the log");
-    let run = diagnose_file(
-        &path,
-        "csv",
-        &Options::default(),
-        &Overrides::default(),
-        None,
-    );
+    let run = diagnose_as_a_user(&path, &r.to_csv());
     let _ = std::fs::remove_file(&path);
     match run {
         Ok(run) => {
@@ -449,15 +455,7 @@ fn a_load_cell_shift_after_the_first_tap_is_named_not_a_contact_shift() {
         for (t, x, f) in shifted_taps(seed) {
             text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
         }
-        std::fs::write(&path, text).unwrap();
-        let run = diagnose_file(
-            &path,
-            "csv",
-            &Options::default(),
-            &Overrides::default(),
-            None,
-        )
-        .unwrap();
+        let run = diagnose_as_a_user(&path, &text).unwrap();
         named.push(run.diagnosis.effects_added());
     }
     for effects in &named {
