@@ -191,6 +191,15 @@ fn relaxing_in_contact(g: &[f64], time_s: &[f64], rate_per_s: f64) -> Vec<f64> {
     h
 }
 
+/// The coefficients (a, b) of g and h in a solution θ = [F0, a, b] on the columns of
+/// `mask` (0 for a column left out).
+fn coefficients(mask: [bool; 2], theta: &Vector3<f64>) -> (f64, f64) {
+    (
+        if mask[0] { theta[1] } else { 0.0 },
+        if mask[1] { theta[2] } else { 0.0 },
+    )
+}
+
 /// The fitting problem on one axis orientation, in scaled units (length L, force S) so
 /// that the normal equations are well conditioned.
 pub struct Problem<'a> {
@@ -472,28 +481,43 @@ impl<'a> Problem<'a> {
         mask: [bool; 2],
     ) -> Option<(Vector3<f64>, f64)> {
         let mut result = self.solve_sums(full, mask)?;
-        let relaxation = self.family.has_relaxation();
-        // Tested where needed, not stored: this runs for every exponent the searches try.
-        // A memoryless law pulls only while the probe retracts faster than the material
-        // recovers, and the probe has then left it: its points are free. A relaxation law's
-        // state pulls after any retract from a relaxed hold, through the rest of the
-        // retract and behind the contact point until it has relaxed: the probe has left
-        // the surface there too, and those points are free (the unilateral, gated law of
-        // the core's QLV); which points pull depends on the fit, hence a few rounds.
-        let unconstrained = result;
-        let rounds = if relaxation { 4 } else { 1 };
+        let (a, b) = coefficients(mask, &result.0);
+        if !self.family.has_relaxation() {
+            // A memoryless law pulls only while the probe retracts faster than the material
+            // recovers, and the probe has then left it: its points are free. (Tested where
+            // needed, not stored: this runs for every exponent the searches try.)
+            let free = |i: usize| g[i] > 0.0 && a * g[i] + b * h[i] < 0.0;
+            if (0..g.len()).any(free) {
+                let sums = self.normal_sums(g, h, free);
+                result = self.solve_sums(&sums, mask)?;
+            }
+        } else if let Some(unilateral) = self.unilateral_relaxation(g, h, mask, result)? {
+            result = unilateral;
+        }
+        if let Some(f0) = self.fixed_offset() {
+            result.0[0] = f0;
+        }
+        Some(result)
+    }
+
+    /// A relaxation law's state pulls after any retract from a relaxed hold, through the
+    /// rest of the retract and behind the contact point until it has relaxed: the probe
+    /// has left the surface there too, and those points are free (the unilateral, gated
+    /// law of the core's QLV); which points pull depends on the fit, hence a few rounds.
+    /// Returns that fit from the unconstrained `first` (`None` when nothing pulls, or
+    /// when the record pulls too, below). Stored: the set is compared between rounds.
+    fn unilateral_relaxation(
+        &self,
+        g: &[f64],
+        h: &[f64],
+        mask: [bool; 2],
+        first: (Vector3<f64>, f64),
+    ) -> Option<Option<(Vector3<f64>, f64)>> {
+        let mut result = first;
         let mut previous: Option<Vec<bool>> = None;
-        let coefficients = |theta: &Vector3<f64>| {
-            (
-                if mask[0] { theta[1] } else { 0.0 },
-                if mask[1] { theta[2] } else { 0.0 },
-            )
-        };
-        for _ in 0..rounds {
-            let (a, b) = coefficients(&result.0);
-            let free: Vec<bool> = (0..g.len())
-                .map(|i| (relaxation || g[i] > 0.0) && a * g[i] + b * h[i] < 0.0)
-                .collect();
+        for _ in 0..4 {
+            let (a, b) = coefficients(mask, &result.0);
+            let free: Vec<bool> = (0..g.len()).map(|i| a * g[i] + b * h[i] < 0.0).collect();
             if previous.as_ref() == Some(&free) || !free.contains(&true) {
                 break;
             }
@@ -501,6 +525,9 @@ impl<'a> Problem<'a> {
             result = self.solve_sums(&sums, mask)?;
             previous = Some(free);
         }
+        let Some(free) = previous else {
+            return Some(None);
+        };
         // Unless the record itself pulls there: adhesion on an AFM retract, not a law of
         // the front end. The law's pull then stands in for it, as it did before the law
         // was made unilateral; freed, the contact point would move out to where the
@@ -508,22 +535,14 @@ impl<'a> Problem<'a> {
         // (the pulling law's own offset would be raised by the pull it fits) and over all
         // the freed points (point by point, noise below the offset would be kept and the
         // law rewarded for pulling on it): their mean force nearer the pull than the offset.
-        if let (true, Some(free)) = (relaxation, &previous) {
-            let (a, b) = coefficients(&result.0);
-            let f0 = self.fixed_offset().unwrap_or(result.0[0]);
-            let (mut pull, mut record) = (0.0, 0.0);
-            for i in (0..g.len()).filter(|&i| free[i]) {
-                pull += a * g[i] + b * h[i];
-                record += self.f[i] - f0;
-            }
-            if record < 0.5 * pull {
-                result = unconstrained;
-            }
+        let (a, b) = coefficients(mask, &result.0);
+        let f0 = self.fixed_offset().unwrap_or(result.0[0]);
+        let (mut pull, mut record) = (0.0, 0.0);
+        for i in (0..g.len()).filter(|&i| free[i]) {
+            pull += a * g[i] + b * h[i];
+            record += self.f[i] - f0;
         }
-        if let Some(f0) = self.fixed_offset() {
-            result.0[0] = f0;
-        }
-        Some(result)
+        Some((record >= 0.5 * pull).then_some(result))
     }
 
     /// RSS at `k`, infinite when no stiffness is positive. Coefficients are non-negative
