@@ -32,6 +32,8 @@ pub struct Truth {
     pub rate_per_s: f64,
     /// Load-cell bias step after the tare \[N\].
     pub force_offset_n: f64,
+    /// Drift of the load cell's zero \[N/s\] from the log's start.
+    pub force_drift_n_per_s: f64,
     /// Surface shift after the first tap \[m\] (the workflow sees −shift as contact offset).
     pub surface_shift_m: f64,
     /// Tissue mass \[kg\].
@@ -272,6 +274,10 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
     if has(Effect::ForceOffset) {
         truth.force_offset_n = signed(&mut rng, 0.02, 0.06) * f_max;
     }
+    if has(Effect::ForceDrift) {
+        // 2-6 % of the peak force over the log's 17 s.
+        truth.force_drift_n_per_s = signed(&mut rng, 0.02, 0.06) * f_max / 17.0;
+    }
     if has(Effect::ContactPointOffset) {
         truth.surface_shift_m = signed(&mut rng, 0.05, 0.1) * depth;
     }
@@ -346,6 +352,11 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
             // The load cell's zero shifts after its first load: the tare no longer holds.
             for v in f.iter_mut().skip(first_left) {
                 *v += truth.force_offset_n;
+            }
+        }
+        if truth.force_drift_n_per_s != 0.0 {
+            for (i, v) in f.iter_mut().enumerate() {
+                *v += truth.force_drift_n_per_s * i as f64 * T;
             }
         }
     }

@@ -37,6 +37,10 @@ pub enum Effect {
     CoulombFriction,
     /// Permanent deformation: the contact point moves with the deepest indentation.
     PlasticSet,
+    /// Drift of the load cell's zero: an offset that grows linearly in time over the
+    /// record, in contact and out of it (a strain-gauge bridge warming up; the core's
+    /// tare follows it between contacts, `conditioning::tare`).
+    ForceDrift,
 }
 
 // `ALL[e as usize] == e`, checked when compiling (the design looks effects up by index).
@@ -53,7 +57,7 @@ const _: () = {
 
 impl Effect {
     /// All effects, in their declaration order (`ALL[e as usize] == e`).
-    pub const ALL: [Effect; 10] = [
+    pub const ALL: [Effect; 11] = [
         Effect::PowerLawStiffness,
         Effect::ExponentialStiffness,
         Effect::DepthDependentDamping,
@@ -64,6 +68,7 @@ impl Effect {
         Effect::TimeDelay,
         Effect::CoulombFriction,
         Effect::PlasticSet,
+        Effect::ForceDrift,
     ];
 
     /// The identifier used in reports and JSON.
@@ -79,6 +84,7 @@ impl Effect {
             Effect::TimeDelay => "time_delay",
             Effect::CoulombFriction => "coulomb_friction",
             Effect::PlasticSet => "plastic_set",
+            Effect::ForceDrift => "force_drift",
         }
     }
 
@@ -104,6 +110,7 @@ impl Effect {
             Effect::TimeDelay => "lag between the force and position channels",
             Effect::CoulombFriction => "force ∝ sign(δ̇)",
             Effect::PlasticSet => "permanent deformation: the unloading contact point moves",
+            Effect::ForceDrift => "load-cell zero drift: an offset linear in time",
         }
     }
 
@@ -113,7 +120,10 @@ impl Effect {
     pub fn precedence(self) -> u8 {
         match self {
             Effect::PowerLawStiffness | Effect::ExponentialStiffness => 0,
-            Effect::ForceOffset | Effect::ContactPointOffset | Effect::PlasticSet => 1,
+            Effect::ForceOffset
+            | Effect::ForceDrift
+            | Effect::ContactPointOffset
+            | Effect::PlasticSet => 1,
             Effect::Relaxation => 2,
             Effect::DepthDependentDamping
             | Effect::Inertia
@@ -150,6 +160,7 @@ impl Effect {
             Effect::TimeDelay => &[Param::DelayS],
             Effect::CoulombFriction => &[Param::CoulombN],
             Effect::PlasticSet => &[Param::PlasticFraction],
+            Effect::ForceDrift => &[Param::ForceDriftNPerS],
         }
     }
 
@@ -164,7 +175,7 @@ impl Effect {
             Effect::TimeDelay => Some(Knob::Delay),
             Effect::PlasticSet => Some(Knob::PlasticFraction),
             Effect::CoulombFriction => Some(Knob::SlipRate),
-            Effect::ForceOffset | Effect::Inertia => None,
+            Effect::ForceOffset | Effect::ForceDrift | Effect::Inertia => None,
         }
     }
 }
@@ -309,6 +320,8 @@ pub enum Param {
     ForceOffsetN,
     /// Refinement of the tare \[N\] (part of every model).
     TareN,
+    /// Drift of the load cell's zero \[N/s\] (from the record's first sample on).
+    ForceDriftNPerS,
     /// Contact position of the later contacts minus the first impact's \[m\].
     ContactShiftM,
     /// Force-channel delay \[s\].
@@ -338,6 +351,7 @@ impl Param {
             Param::CoulombN => "coulomb_n",
             Param::ForceOffsetN => "force_offset_n",
             Param::TareN => "tare_n",
+            Param::ForceDriftNPerS => "force_drift_n_per_s",
             Param::ContactShiftM => "contact_shift_m",
             Param::DelayS => "delay_s",
             Param::PlasticFraction => "plastic_fraction",

@@ -79,6 +79,11 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
             "each depth is passed once, at one speed: the time since contact is a function of depth, so a relaxing memory of the elastic force is one more elastic law (the elastic reading is kept)",
             separating_motion(Effect::PowerLawStiffness, e),
         )
+    } else if e == Effect::ForceDrift {
+        (
+            "the record leaves contact at most once: a zero that drifts is a slope in time, which the contact's own force (relaxation, creep, the law along a stroke) can take",
+            "lift-offs spread over the record (the free-space force then shows the drift)",
+        )
     } else if e == Effect::ContactPointOffset {
         (
             "the record has one contact: a shifted contact point for the later contacts has nothing to act on (the contact point itself is refined in every model)",
@@ -117,6 +122,8 @@ pub fn separating_motion(a: Effect, b: Effect) -> &'static str {
         "motion at several frequencies (a delay's force lead grows with frequency, damping's does not)"
     } else if has(CoulombFriction) {
         "motion reversals at several speeds (friction's step does not scale with speed)"
+    } else if has(ForceDrift) {
+        "lift-offs spread over the record (a drifting zero shows in the free-space force at each)"
     } else if has(ForceOffset) || has(ContactPointOffset) || has(PlasticSet) {
         "a lift-off out of contact and back (the offset, the contact point and a set differ there)"
     } else {

@@ -58,7 +58,7 @@ use estimator_core::ModelKind;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use self::catalogue::{knobs_of, Effect, Nonlinear};
+use self::catalogue::{knobs_of, Effect, Nonlinear, Param};
 use self::data::Prepared;
 pub use self::identifiability::{
     rate_spread_at_depth, separating_motion, speed_spread_at_depth, unidentifiable_reason,
@@ -66,7 +66,7 @@ pub use self::identifiability::{
 };
 pub use self::localisation::{localise, Localisation, PHASE_ORDER};
 pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
-use self::scoring::{rss_floor, samples_counted, score};
+use self::scoring::{free_space_trend, rss_floor, samples_counted, score, MIN_FREE_SPACE_TREND};
 use self::solver::{fit, Effort, Fit};
 
 /// Candidates fitted fully in each round (the rest only screened).
@@ -152,6 +152,9 @@ pub struct Candidate {
     /// Its own nonlinear parameter ended at the value that makes it the current model
     /// (`Knob::nested_value`): never significant.
     pub nested: bool,
+    /// A drift of the zero the free space does not show
+    /// ([`scoring::free_space_trend`]): never significant.
+    pub unseen_in_free_space: bool,
 }
 
 /// An effect the record cannot tell apart from the one named.
@@ -305,6 +308,10 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             Effect::Relaxation => one_speed,
             // A shifted point for the later contacts: with none, the contact refinement.
             Effect::ContactPointOffset => data.first_contact_end >= data.len(),
+            // A drift of the zero is a slope in time: free space at two times, a contact
+            // between them, shows it; with one stretch of free space a slope in time is
+            // the contact's own (relaxation, creep, the law along a monotonic stroke).
+            Effect::ForceDrift => hold_tare || free_stretches(data, data.fit_start()) < 2,
             Effect::CoulombFriction | Effect::Inertia => one_speed || one_speed_each_way,
             _ => one_speed && e.is_rate_effect(),
         })
@@ -359,6 +366,18 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         }
         (_, held) => held,
     }
+}
+
+/// Fewest fitting samples of a stretch out of contact that [`free_stretches`] counts.
+pub const MIN_FREE_STRETCH: usize = 5;
+
+/// Stretches of at least [`MIN_FREE_STRETCH`] consecutive fitting samples out of contact
+/// (by the detector) from `start` on.
+fn free_stretches(data: &Prepared, start: usize) -> usize {
+    data.contact[start..]
+        .split(|c| *c)
+        .filter(|run| run.len() >= MIN_FREE_STRETCH)
+        .count()
 }
 
 /// What the workflow's runs on one record share: its identifiability verdicts and the
@@ -429,60 +448,76 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             with
         };
         let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
-        let fit_one =
-            |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
-                // On a record with one contact (a compression test), a model with the
-                // exponential law is screened with the law alone and on the linear
-                // spring, at every step; the spring is one more parameter and is kept
-                // only if it passes the rule an effect passes against the law alone. The
-                // refinement keeps the screened variant. Where later contacts can show a
-                // shifted contact point, the spring is not offered: near the contact it
-                // has the same signature as the shift (on the project's sweep it took the
-                // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
-                let with = set(e, replaces);
-                let knobs: Vec<_> = e.knob().into_iter().collect();
-                let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
-                let fit = if with.contains(&Effect::ExponentialStiffness)
-                    && effort == Effort::QUICK
-                    && one_contact
-                {
-                    let variant = |linear_spring| Nonlinear {
-                        linear_spring,
-                        ..*from
-                    };
-                    match (fit_from(&variant(false)), fit_from(&variant(true))) {
-                        (Some(alone), Some(spring)) => {
-                            let keeps = score(
-                                Effect::ExponentialStiffness,
-                                None,
-                                spring.clone(),
-                                &alone,
-                                options,
-                                duration_s,
-                                noise_fraction,
-                            )
-                            .significant;
-                            if keeps {
-                                spring
-                            } else {
-                                alone
-                            }
-                        }
-                        (alone, spring) => alone.or(spring)?,
-                    }
-                } else {
-                    fit_from(from)?
+        let fit_one = |(e, replaces): (Effect, Option<Effect>),
+                       from: &Nonlinear,
+                       effort: Effort| {
+            // On a record with one contact (a compression test), a model with the
+            // exponential law is screened with the law alone and on the linear
+            // spring, at every step; the spring is one more parameter and is kept
+            // only if it passes the rule an effect passes against the law alone. The
+            // refinement keeps the screened variant. Where later contacts can show a
+            // shifted contact point, the spring is not offered: near the contact it
+            // has the same signature as the shift (on the project's sweep it took the
+            // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
+            let with = set(e, replaces);
+            let knobs: Vec<_> = e.knob().into_iter().collect();
+            let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
+            let fit = if with.contains(&Effect::ExponentialStiffness)
+                && effort == Effort::QUICK
+                && one_contact
+            {
+                let variant = |linear_spring| Nonlinear {
+                    linear_spring,
+                    ..*from
                 };
-                Some(score(
-                    e,
-                    replaces,
-                    fit,
-                    &current,
-                    options,
-                    duration_s,
-                    noise_fraction,
-                ))
+                match (fit_from(&variant(false)), fit_from(&variant(true))) {
+                    (Some(alone), Some(spring)) => {
+                        let keeps = score(
+                            Effect::ExponentialStiffness,
+                            None,
+                            spring.clone(),
+                            &alone,
+                            options,
+                            duration_s,
+                            noise_fraction,
+                        )
+                        .significant;
+                        if keeps {
+                            spring
+                        } else {
+                            alone
+                        }
+                    }
+                    (alone, spring) => alone.or(spring)?,
+                }
+            } else {
+                fit_from(from)?
             };
+            let mut scored = score(
+                e,
+                replaces,
+                fit,
+                &current,
+                options,
+                duration_s,
+                noise_fraction,
+            );
+            if e == Effect::ForceDrift {
+                // The zero is seen alone in the free space: a drift it does not show
+                // there (the same sign, |t| ≥ 3 against the stretch means' scatter)
+                // is the contact's misfit taken up by a slope in time (the project's
+                // clean chirps and ramps with AR(1) noise were given one).
+                let drift = scored.fit.parameter(Param::ForceDriftNPerS).unwrap_or(0.0);
+                let shown = free_space_trend(data, data.fit_start(), noise_fraction).is_some_and(
+                    |(slope, t)| slope * drift > 0.0 && t.abs() >= MIN_FREE_SPACE_TREND,
+                );
+                if !shown {
+                    scored.significant = false;
+                    scored.unseen_in_free_space = true;
+                }
+            }
+            Some(scored)
+        };
         let mut screened: Vec<Candidate> = untried
             .into_par_iter()
             .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))

@@ -32,6 +32,9 @@ pub enum Column {
     Tare,
     /// 1 after the first contact, coefficient the later load-cell bias.
     ForceOffset,
+    /// Time since the record's first sample \[s\], coefficient the load cell's zero
+    /// drift \[N/s\].
+    ForceDrift,
 }
 
 impl Column {
@@ -421,6 +424,13 @@ pub(super) fn design(
                 })
                 .collect(),
         );
+        material.push(false);
+    }
+    if has(Effect::ForceDrift) {
+        // The zero drifts in contact as out of it: a ramp in time over the whole window.
+        let t0 = data.time_s.first().copied().unwrap_or(0.0);
+        names.push(Column::ForceDrift);
+        columns.push((start..data.len()).map(|b| data.time_s[b] - t0).collect());
         material.push(false);
     }
     Design {

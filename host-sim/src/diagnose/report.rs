@@ -203,6 +203,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "no (nonphysical)"
             } else if c.nested {
                 "no (its parameter stayed at the current model's value)"
+            } else if c.unseen_in_free_space {
+                "no (the free-space force shows no such trend)"
             } else {
                 "no"
             },

@@ -132,6 +132,78 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
     Some(1.0 / (1.0 + 2.0 * sum))
 }
 
+/// |t| a drift's slope must reach in the free space ([`free_space_trend`]).
+pub const MIN_FREE_SPACE_TREND: f64 = 3.0;
+
+/// The trend in time of the force over the record's free space from `start` on: the slope
+/// \[N/s\] of the weighted line through the force's means over the stretches out of
+/// contact (at least [`super::MIN_FREE_STRETCH`] fitting samples each, weighted by the
+/// noise of a mean of that many samples: `data.noise_n`² / (n·`noise_fraction`)), and its
+/// t statistic, its standard error inflated by the means' scatter about the line where it
+/// exceeds the noise's (three stretches or more). The free space is where the load cell's
+/// zero is seen alone, whatever a model does in contact: a drift the contact samples
+/// suggest but the free space does not show is the model's misfit, not the zero's.
+/// `None` with fewer than two stretches.
+pub fn free_space_trend(
+    data: &Prepared,
+    start: usize,
+    noise_fraction: Option<f64>,
+) -> Option<(f64, f64)> {
+    let r = &data.force_n[start..];
+    let contact = &data.contact[start..];
+    // Stretches (first sample, length) and the fitting samples' own scatter about each
+    // stretch's mean, pooled: the noise of a fitting sample as the record has it (block
+    // means of coloured noise are noisier than `data.noise_n`'s white-noise scaling).
+    let (mut i, mut runs) = (0, Vec::new());
+    while i < contact.len() {
+        let run = contact[i..].iter().take_while(|c| !**c).count();
+        if run >= super::MIN_FREE_STRETCH {
+            runs.push((i, run));
+        }
+        i += run.max(1);
+    }
+    let mean = |(i, run): (usize, usize)| r[i..i + run].iter().sum::<f64>() / run as f64;
+    let (ss, dof) = runs.iter().fold((0.0, 0usize), |(ss, dof), &(i, run)| {
+        let m = mean((i, run));
+        let s: f64 = r[i..i + run].iter().map(|v| (v - m).powi(2)).sum();
+        (ss + s, dof + run - 1)
+    });
+    let sample_var = (ss / dof.max(1) as f64).max(data.noise_n.powi(2));
+    let means: Vec<(f64, f64, f64)> = runs
+        .iter()
+        .map(|&(i, run)| {
+            let t = data.time_s[start + i..start + i + run].iter().sum::<f64>() / run as f64;
+            let var = sample_var / (run as f64 * noise_fraction.unwrap_or(1.0));
+            (t, mean((i, run)), 1.0 / var.max(f64::MIN_POSITIVE))
+        })
+        .collect();
+    if means.len() < 2 {
+        return None;
+    }
+    let w: f64 = means.iter().map(|p| p.2).sum();
+    let tm = means.iter().map(|p| p.2 * p.0).sum::<f64>() / w;
+    let mm = means.iter().map(|p| p.2 * p.1).sum::<f64>() / w;
+    let stt: f64 = means.iter().map(|p| p.2 * (p.0 - tm).powi(2)).sum();
+    if stt <= 0.0 {
+        return None;
+    }
+    let slope = means
+        .iter()
+        .map(|p| p.2 * (p.0 - tm) * (p.1 - mm))
+        .sum::<f64>()
+        / stt;
+    let mut se = (1.0 / stt).sqrt();
+    if means.len() > 2 {
+        let chi2: f64 = means
+            .iter()
+            .map(|p| p.2 * (p.1 - mm - slope * (p.0 - tm)).powi(2))
+            .sum::<f64>()
+            / (means.len() - 2) as f64;
+        se *= chi2.max(1.0).sqrt();
+    }
+    Some((slope, slope / se))
+}
+
 #[allow(clippy::too_many_arguments)]
 pub(super) fn score(
     effect: Effect,
@@ -175,6 +247,7 @@ pub(super) fn score(
         significant,
         physical: is_physical,
         nested,
+        unseen_in_free_space: false,
     }
 }
 

@@ -847,6 +847,7 @@ fn name_parameters(
         (Column::Inertia, Param::MassKg),
         (Column::Coulomb, Param::CoulombN),
         (Column::ForceOffset, Param::ForceOffsetN),
+        (Column::ForceDrift, Param::ForceDriftNPerS),
         (Column::Tare, Param::TareN),
     ] {
         if let Some(j) = col(column) {

@@ -109,6 +109,10 @@ pub struct ModelSpec {
     pub force_offset_n: f64,
     /// A further offset after the first contact \[N\] (a zero shift), if modelled.
     pub later_force_offset_n: Option<f64>,
+    /// Drift of the load cell's zero \[N/s\] from the record's first sample on, if
+    /// modelled (absent from specs written before it existed: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_drift_n_per_s: Option<f64>,
     /// NRMSE \[%\] of this model on its source record (the diagnosis's final NRMSE).
     pub nrmse_percent: f64,
 }
@@ -175,6 +179,7 @@ impl ModelSpec {
             contact_shift_m: fit.parameter(Param::ContactShiftM),
             force_offset_n: data.force_offset_n + fit.parameter(Param::TareN).unwrap_or(0.0),
             later_force_offset_n: fit.parameter(Param::ForceOffsetN),
+            force_drift_n_per_s: fit.parameter(Param::ForceDriftNPerS),
             nrmse_percent: fit.nrmse_percent,
         })
     }
@@ -309,6 +314,14 @@ impl ModelSpec {
         if let Some(f) = self.later_force_offset_n {
             finite("later_force_offset_n", f)?;
         }
+        present(
+            "force_drift_n_per_s",
+            Effect::ForceDrift,
+            self.force_drift_n_per_s.is_some(),
+        )?;
+        if let Some(d) = self.force_drift_n_per_s {
+            finite("force_drift_n_per_s", d)?;
+        }
         if self.position_sign != 1.0 && self.position_sign != -1.0 {
             bail!(
                 "field position_sign: {}, expected 1 or -1",
@@ -370,6 +383,7 @@ impl ModelSpec {
             Column::Coulomb => self.coulomb.map_or(0.0, |c| c.force_n),
             Column::Tare => self.force_offset_n - data.force_offset_n,
             Column::ForceOffset => self.later_force_offset_n.unwrap_or(0.0),
+            Column::ForceDrift => self.force_drift_n_per_s.unwrap_or(0.0),
         };
         regressors::predict(data, &effects, &nl, coefficient)
     }
@@ -442,7 +456,11 @@ mod tests {
             &[Effect::PowerLawStiffness, Effect::Relaxation],
             &[Effect::ExponentialStiffness, Effect::CoulombFriction],
             &[Effect::Inertia, Effect::TimeDelay, Effect::ForceOffset],
-            &[Effect::ContactPointOffset, Effect::PlasticSet],
+            &[
+                Effect::ContactPointOffset,
+                Effect::PlasticSet,
+                Effect::ForceDrift,
+            ],
         ];
         for (seed, effects) in structures.iter().enumerate() {
             let g = generator::generate(effects, 40 + seed as u64);
@@ -503,6 +521,7 @@ mod tests {
             contact_shift_m: None,
             force_offset_n: 0.0,
             later_force_offset_n: None,
+            force_drift_n_per_s: None,
             nrmse_percent: 1.0,
         }
     }
