@@ -368,7 +368,8 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     }
 }
 
-/// Fewest fitting samples of a stretch out of contact that [`free_stretches`] counts.
+/// Fewest fitting samples of a stretch out of contact that the drift's identifiability
+/// and `scoring::free_space_trend` count.
 pub const MIN_FREE_STRETCH: usize = 5;
 
 /// Stretches of at least [`MIN_FREE_STRETCH`] consecutive fitting samples out of contact
