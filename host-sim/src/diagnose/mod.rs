@@ -66,7 +66,9 @@ pub use self::identifiability::{
 };
 pub use self::localisation::{localise, Localisation, PHASE_ORDER};
 pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
-use self::scoring::{free_space_trend, rss_floor, samples_counted, score, MIN_FREE_SPACE_TREND};
+use self::scoring::{
+    free_runs, free_space_trend, rss_floor, samples_counted, score, MIN_FREE_SPACE_TREND,
+};
 use self::solver::{fit, Effort, Fit};
 
 /// Candidates fitted fully in each round (the rest only screened).
@@ -311,7 +313,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             // A drift of the zero is a slope in time: free space at two times, a contact
             // between them, shows it; with one stretch of free space a slope in time is
             // the contact's own (relaxation, creep, the law along a monotonic stroke).
-            Effect::ForceDrift => hold_tare || free_stretches(data, data.fit_start()) < 2,
+            Effect::ForceDrift => hold_tare || free_runs(data, data.fit_start()).len() < 2,
             Effect::CoulombFriction | Effect::Inertia => one_speed || one_speed_each_way,
             _ => one_speed && e.is_rate_effect(),
         })
@@ -371,15 +373,6 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
 /// Fewest fitting samples of a stretch out of contact that the drift's identifiability
 /// and `scoring::free_space_trend` count.
 pub const MIN_FREE_STRETCH: usize = 5;
-
-/// Stretches of at least [`MIN_FREE_STRETCH`] consecutive fitting samples out of contact
-/// (by the detector) from `start` on.
-fn free_stretches(data: &Prepared, start: usize) -> usize {
-    data.contact[start..]
-        .split(|c| *c)
-        .filter(|run| run.len() >= MIN_FREE_STRETCH)
-        .count()
-}
 
 /// What the workflow's runs on one record share: its identifiability verdicts and the
 /// scoring's inputs ([`diagnose`]).

@@ -132,6 +132,21 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
     Some(1.0 / (1.0 + 2.0 * sum))
 }
 
+/// The stretches of at least [`super::MIN_FREE_STRETCH`] consecutive fitting samples out
+/// of contact (by the detector) from `start` on: (first sample − `start`, length).
+pub(super) fn free_runs(data: &Prepared, start: usize) -> Vec<(usize, usize)> {
+    let contact = &data.contact[start..];
+    let (mut i, mut runs) = (0, Vec::new());
+    while i < contact.len() {
+        let run = contact[i..].iter().take_while(|c| !**c).count();
+        if run >= super::MIN_FREE_STRETCH {
+            runs.push((i, run));
+        }
+        i += run.max(1);
+    }
+    runs
+}
+
 /// |t| a drift's slope must reach in the free space ([`free_space_trend`]).
 pub const MIN_FREE_SPACE_TREND: f64 = 3.0;
 
@@ -150,18 +165,10 @@ pub fn free_space_trend(
     noise_fraction: Option<f64>,
 ) -> Option<(f64, f64)> {
     let r = &data.force_n[start..];
-    let contact = &data.contact[start..];
-    // Stretches (first sample, length) and the fitting samples' own scatter about each
-    // stretch's mean, pooled: the noise of a fitting sample as the record has it (block
-    // means of coloured noise are noisier than `data.noise_n`'s white-noise scaling).
-    let (mut i, mut runs) = (0, Vec::new());
-    while i < contact.len() {
-        let run = contact[i..].iter().take_while(|c| !**c).count();
-        if run >= super::MIN_FREE_STRETCH {
-            runs.push((i, run));
-        }
-        i += run.max(1);
-    }
+    // The fitting samples' own scatter about each stretch's mean, pooled: the noise of a
+    // fitting sample as the record has it (block means of coloured noise are noisier than
+    // `data.noise_n`'s white-noise scaling).
+    let runs = free_runs(data, start);
     let mean = |(i, run): (usize, usize)| r[i..i + run].iter().sum::<f64>() / run as f64;
     let (ss, dof) = runs.iter().fold((0.0, 0usize), |(ss, dof), &(i, run)| {
         let m = mean((i, run));
