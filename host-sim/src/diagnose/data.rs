@@ -352,6 +352,12 @@ pub const MIN_SAMPLES: usize = 200;
 const MIN_BLOCKS: usize = 100;
 
 impl Prepared {
+    /// Time of fitting sample `i` since the log's first sample \[s\]: the regressor of a
+    /// drifting load-cell zero.
+    pub fn since_start_s(&self, i: usize) -> f64 {
+        self.time_s[i] - self.time_s[0]
+    }
+
     /// Index of the first fitting sample: 0.25 s (at least 5 samples) before the first
     /// contact, so that the onset and some free space (for the tare) are inside the fit
     /// but not a long approach.

@@ -113,10 +113,9 @@ fn signatures(data: &Prepared, start: usize) -> Vec<(String, Vec<f64>)> {
             })
             .collect(),
     ));
-    let t0 = data.time_s.first().copied().unwrap_or(0.0);
     out.push((
         Effect::ForceDrift.id().into(),
-        data.time_s[start..].iter().map(|t| t - t0).collect(),
+        (start..data.len()).map(|i| data.since_start_s(i)).collect(),
     ));
     out
 }

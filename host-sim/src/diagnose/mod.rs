@@ -421,6 +421,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
     )?;
     let mut current = baseline_fit.clone();
     let mut steps = Vec::new();
+    // The free space's own trend, a property of the record (not of any model): computed
+    // once, for every `force_drift` candidate of every step.
+    let free_trend = free_space_trend(data, data.fit_start(), noise_fraction);
     let mut final_candidates = Vec::new();
     for _ in 0..options.max_steps {
         // Every absent effect; one that replaces the same model piece as a present one
@@ -442,76 +445,75 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             with
         };
         let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
-        let fit_one = |(e, replaces): (Effect, Option<Effect>),
-                       from: &Nonlinear,
-                       effort: Effort| {
-            // On a record with one contact (a compression test), a model with the
-            // exponential law is screened with the law alone and on the linear
-            // spring, at every step; the spring is one more parameter and is kept
-            // only if it passes the rule an effect passes against the law alone. The
-            // refinement keeps the screened variant. Where later contacts can show a
-            // shifted contact point, the spring is not offered: near the contact it
-            // has the same signature as the shift (on the project's sweep it took the
-            // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
-            let with = set(e, replaces);
-            let knobs: Vec<_> = e.knob().into_iter().collect();
-            let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
-            let fit = if with.contains(&Effect::ExponentialStiffness)
-                && effort == Effort::QUICK
-                && one_contact
-            {
-                let variant = |linear_spring| Nonlinear {
-                    linear_spring,
-                    ..*from
-                };
-                match (fit_from(&variant(false)), fit_from(&variant(true))) {
-                    (Some(alone), Some(spring)) => {
-                        let keeps = score(
-                            Effect::ExponentialStiffness,
-                            None,
-                            spring.clone(),
-                            &alone,
-                            options,
-                            duration_s,
-                            noise_fraction,
-                        )
-                        .significant;
-                        if keeps {
-                            spring
-                        } else {
-                            alone
+        let fit_one =
+            |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
+                // On a record with one contact (a compression test), a model with the
+                // exponential law is screened with the law alone and on the linear
+                // spring, at every step; the spring is one more parameter and is kept
+                // only if it passes the rule an effect passes against the law alone. The
+                // refinement keeps the screened variant. Where later contacts can show a
+                // shifted contact point, the spring is not offered: near the contact it
+                // has the same signature as the shift (on the project's sweep it took the
+                // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
+                let with = set(e, replaces);
+                let knobs: Vec<_> = e.knob().into_iter().collect();
+                let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
+                let fit = if with.contains(&Effect::ExponentialStiffness)
+                    && effort == Effort::QUICK
+                    && one_contact
+                {
+                    let variant = |linear_spring| Nonlinear {
+                        linear_spring,
+                        ..*from
+                    };
+                    match (fit_from(&variant(false)), fit_from(&variant(true))) {
+                        (Some(alone), Some(spring)) => {
+                            let keeps = score(
+                                Effect::ExponentialStiffness,
+                                None,
+                                spring.clone(),
+                                &alone,
+                                options,
+                                duration_s,
+                                noise_fraction,
+                            )
+                            .significant;
+                            if keeps {
+                                spring
+                            } else {
+                                alone
+                            }
                         }
+                        (alone, spring) => alone.or(spring)?,
                     }
-                    (alone, spring) => alone.or(spring)?,
-                }
-            } else {
-                fit_from(from)?
-            };
-            let mut scored = score(
-                e,
-                replaces,
-                fit,
-                &current,
-                options,
-                duration_s,
-                noise_fraction,
-            );
-            if e == Effect::ForceDrift {
-                // The zero is seen alone in the free space: a drift it does not show
-                // there (the same sign, |t| ≥ 3 against the stretch means' scatter)
-                // is the contact's misfit taken up by a slope in time (the project's
-                // clean chirps and ramps with AR(1) noise were given one).
-                let drift = scored.fit.parameter(Param::ForceDriftNPerS).unwrap_or(0.0);
-                let shown = free_space_trend(data, data.fit_start(), noise_fraction).is_some_and(
-                    |(slope, t)| slope * drift > 0.0 && t.abs() >= MIN_FREE_SPACE_TREND,
+                } else {
+                    fit_from(from)?
+                };
+                let mut scored = score(
+                    e,
+                    replaces,
+                    fit,
+                    &current,
+                    options,
+                    duration_s,
+                    noise_fraction,
                 );
-                if !shown {
-                    scored.significant = false;
-                    scored.unseen_in_free_space = true;
+                if e == Effect::ForceDrift {
+                    // The zero is seen alone in the free space: a drift it does not show
+                    // there (the same sign, |t| ≥ 3 against the stretch means' scatter)
+                    // is the contact's misfit taken up by a slope in time (the project's
+                    // clean chirps and ramps with AR(1) noise were given one).
+                    let drift = scored.fit.parameter(Param::ForceDriftNPerS).unwrap_or(0.0);
+                    let shown = free_trend.is_some_and(|(slope, t)| {
+                        slope * drift > 0.0 && t.abs() >= MIN_FREE_SPACE_TREND
+                    });
+                    if !shown {
+                        scored.significant = false;
+                        scored.unseen_in_free_space = true;
+                    }
                 }
-            }
-            Some(scored)
-        };
+                Some(scored)
+            };
         let mut screened: Vec<Candidate> = untried
             .into_par_iter()
             .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))

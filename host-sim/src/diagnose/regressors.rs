@@ -428,9 +428,8 @@ pub(super) fn design(
     }
     if has(Effect::ForceDrift) {
         // The zero drifts in contact as out of it: a ramp in time over the whole window.
-        let t0 = data.time_s.first().copied().unwrap_or(0.0);
         names.push(Column::ForceDrift);
-        columns.push((start..data.len()).map(|b| data.time_s[b] - t0).collect());
+        columns.push((start..data.len()).map(|b| data.since_start_s(b)).collect());
         material.push(false);
     }
     Design {

@@ -153,7 +153,8 @@ pub const MIN_FREE_SPACE_TREND: f64 = 3.0;
 /// The trend in time of the force over the record's free space from `start` on: the slope
 /// \[N/s\] of the weighted line through the force's means over the stretches out of
 /// contact (at least [`super::MIN_FREE_STRETCH`] fitting samples each, weighted by the
-/// noise of a mean of that many samples: `data.noise_n`² / (n·`noise_fraction`)), and its
+/// noise of a mean of that many samples: σ² / (n·`noise_fraction`), σ² the fitting
+/// samples' pooled scatter about their stretch's mean, at least `data.noise_n`²), and its
 /// t statistic, its standard error inflated by the means' scatter about the line where it
 /// exceeds the noise's (three stretches or more). The free space is where the load cell's
 /// zero is seen alone, whatever a model does in contact: a drift the contact samples
