@@ -31,7 +31,7 @@
 
 use std::collections::BTreeMap;
 
-use host_sim::diagnose::catalogue::Param;
+use host_sim::diagnose::catalogue::{Effect, Param};
 use host_sim::diagnose::Options;
 use host_sim::files::{diagnose_file, FileDiagnosis};
 use host_sim::recordings::{generate, MaterialKind, Structure};
@@ -526,5 +526,76 @@ fn a_drifting_zero_is_named_and_measured_and_coloured_noise_is_not_a_drift() {
         // own weakness on strongly coloured noise, not the drift's.)
         let named = d.effects_added();
         assert!(!named.contains(&"force_drift"), "seed {seed}: {named:?}");
+    }
+}
+
+/// (time \[s\], position \[m\], force \[N\]) of a Kelvin-Voigt material (κ = 5458 N/m,
+/// λ = 521 N·s/m) pressed by a 0.7 Hz sine for 10 s at 500 Hz, its force lagging the
+/// motion by `delay_s`, under white noise of 0.05 N: in contact throughout (2.5 ± 1.2 mm)
+/// or leaving it on every cycle (1.5 ± 2.5 mm).
+fn delayed_sine(seed: u64, lift_off: bool, delay_s: f64) -> Vec<(f64, f64, f64)> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (kappa, lambda) = (5458.0, 520.7);
+    let (mean, amplitude) = if lift_off {
+        (1.5e-3, 2.5e-3)
+    } else {
+        (2.5e-3, 1.2e-3)
+    };
+    let w = 2.0 * std::f64::consts::PI * 0.7;
+    let phase = rng.random_range(0.0..std::f64::consts::TAU);
+    let z = |t: f64| mean + amplitude * (w * t + phase).sin();
+    let v = |t: f64| amplitude * w * (w * t + phase).cos();
+    let noise = Normal::new(0.0, 0.05).unwrap();
+    (0..5000)
+        .map(|i| {
+            let t = i as f64 / 500.0;
+            let (zd, vd) = (z(t - delay_s), v(t - delay_s));
+            let f = if zd > 0.0 {
+                (kappa * zd + lambda * vd).max(0.0)
+            } else {
+                0.0
+            };
+            (t, 0.02 + z(t), 1.3 + f + noise.sample(&mut rng))
+        })
+        .collect()
+}
+
+/// A delay on a record that stays in contact at one frequency only rotates the force's
+/// phase, which the stiffness and damping re-split exactly: it is listed as not
+/// identifiable and never named (the independent generator's clean KV sine in contact,
+/// its D03 seed 201, was given a delay of −2.5 ms at 3.3 kHz, −7.5 ms at 1 and 10 kHz).
+/// The same motion leaving contact on every cycle shows the force rising τ after the
+/// contact: there the delay is tried. (It is not found there yet: on this lift-off sine
+/// the delay's search stays at 0 for τ = 5-30 ms and a power law with n < 1 is named,
+/// issue 13's open weakness; on the generator's taps and ramps it is found 20/20.)
+#[test]
+fn a_delay_is_not_tried_where_one_frequency_in_contact_cannot_show_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let diagnose = |name: &str, rows: Vec<(f64, f64, f64)>| {
+        let path = dir.path().join(name);
+        let mut text = String::from("time_s,position_m,force_n\n");
+        for (t, x, f) in rows {
+            text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
+        }
+        diagnose_as_a_user(&path, &text).unwrap().diagnosis
+    };
+    for seed in 0..2 {
+        let d = diagnose(&format!("in-{seed}.csv"), delayed_sine(seed, false, 0.03));
+        assert!(
+            d.unidentifiable.contains(&Effect::TimeDelay),
+            "seed {seed}: {:?}",
+            d.unidentifiable
+        );
+        assert!(
+            d.effects_added().is_empty(),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+        let d = diagnose(&format!("out-{seed}.csv"), delayed_sine(seed, true, 0.03));
+        assert!(
+            !d.unidentifiable.contains(&Effect::TimeDelay),
+            "seed {seed}: {:?}",
+            d.unidentifiable
+        );
     }
 }

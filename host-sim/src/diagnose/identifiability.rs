@@ -89,6 +89,13 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
             "the record has one contact: a shifted contact point for the later contacts has nothing to act on (the contact point itself is refined in every model)",
             "a lift-off and a second contact",
         )
+    } else if e == Effect::TimeDelay && d.rate_spread >= RATE_SPREAD_MIN {
+        // (Not one speed: the record oscillates at one speed each way in contact
+        // throughout, see `diagnose`.)
+        (
+            "the record stays in contact at one speed each way (one frequency): a delay τ only rotates the force's phase there, κ·δ(t − τ) + λ·δ̇(t − τ) = (κ cos ωτ + λω sin ωτ)·(δ − δ₀) + (λ cos ωτ − κ sin ωτ/ω)·δ̇ + const on a sinusoid, which the stiffness and damping re-split exactly (under a power law its first-order term is a depth-dependent damping); on constant-speed strokes it shows only at the reversals",
+            "a lift-off and a new contact (the force then rises τ after the contact) or motion at several frequencies",
+        )
     } else if e.is_rate_effect() && d.damping_held {
         (
             "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0: its one trace, the step λv at a contact onset from free space, is absent or not significant)",

@@ -232,7 +232,8 @@ pub struct Diagnosis {
     pub speed_spread: f64,
     /// Effects not tried because the record cannot identify them (the rate effects,
     /// relaxation and a plastic set when the spread is below [`RATE_SPREAD_MIN`];
-    /// Coulomb friction and inertia when the speed's spread is; a
+    /// Coulomb friction and inertia when the speed's spread is; a delay when it is and
+    /// the fit window never leaves contact; a
     /// force offset that trades against the contact point; a later contact point with one
     /// contact).
     pub unidentifiable: Vec<Effect>,
@@ -298,6 +299,15 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let speed_spread = speed_spread_at_depth(data, data.fit_start());
     let one_speed_each_way = speed_spread < RATE_SPREAD_MIN;
     let hold_tare = one_speed && data.offset_unidentified;
+    // In contact throughout the fit window at one speed each way (a sine at one
+    // frequency, a triangle): a delay τ only rotates the force's phase on a sinusoid,
+    // κ·δ(t − τ) + λ·δ̇(t − τ) = (κ cos ωτ + λω sin ωτ)·(δ − δ₀) + (λ cos ωτ − κ sin ωτ/ω)·δ̇
+    // + const, which the baseline's stiffness and damping re-split exactly (and, under a
+    // power law, k·n·δ^(n−1)·τ·δ̇ is a depth-dependent damping); on constant-speed strokes
+    // it shows only at the reversals. A contact onset in the window (the force rising τ
+    // after the contact) or a second frequency identifies it.
+    let in_contact_throughout = (data.fit_start()..data.len()).all(|i| data.contact[i]);
+    let one_frequency_in_contact = one_speed_each_way && in_contact_throughout;
     let unidentifiable: Vec<Effect> = Effect::ALL
         .into_iter()
         .filter(|e| match e {
@@ -315,6 +325,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             // the contact's own (relaxation, creep, the law along a monotonic stroke).
             Effect::ForceDrift => hold_tare || free_runs(data, data.fit_start()).len() < 2,
             Effect::CoulombFriction | Effect::Inertia => one_speed || one_speed_each_way,
+            Effect::TimeDelay => one_speed || one_frequency_in_contact,
             _ => one_speed && e.is_rate_effect(),
         })
         .collect();
