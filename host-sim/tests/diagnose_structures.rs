@@ -32,7 +32,7 @@
 use std::collections::BTreeMap;
 
 use host_sim::diagnose::catalogue::{Effect, Param};
-use host_sim::diagnose::Options;
+use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::{diagnose_file, FileDiagnosis};
 use host_sim::recordings::{generate, MaterialKind, Structure};
 use host_sim::setup::Overrides;
@@ -455,6 +455,18 @@ fn taps(seed: u64, zero: Zero, phi: f64) -> Vec<(f64, f64, f64)> {
         .collect()
 }
 
+/// `rows` (time \[s\], position \[m\], force \[N\]) written to `dir/name` as a CSV file
+/// and diagnosed as a user would.
+fn diagnose_rows(dir: &std::path::Path, name: &str, rows: &[(f64, f64, f64)]) -> Diagnosis {
+    let mut text = String::from("time_s,position_m,force_n\n");
+    for (t, x, f) in rows {
+        text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
+    }
+    diagnose_as_a_user(&dir.join(name), &text)
+        .unwrap()
+        .diagnosis
+}
+
 /// A load-cell zero shift after the first contact, on Kelvin-Voigt taps sampled at 124 Hz:
 /// the case that made the BIC, not the held-out error alone, choose among accepted
 /// candidates (`diagnose::choose`). Held out, the first contact is the only stretch that
@@ -468,13 +480,9 @@ fn a_load_cell_shift_after_the_first_tap_is_named_not_a_contact_shift() {
     let dir = tempfile::tempdir().unwrap();
     let mut named = Vec::new();
     for seed in 0..3 {
-        let path = dir.path().join(format!("shift-{seed}.csv"));
-        let mut text = String::from("time_s,position_m,force_n\n");
-        for (t, x, f) in taps(seed, Zero::Step(3.531), 0.0) {
-            text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
-        }
-        let run = diagnose_as_a_user(&path, &text).unwrap();
-        named.push(run.diagnosis.effects_added());
+        let rows = taps(seed, Zero::Step(3.531), 0.0);
+        let d = diagnose_rows(dir.path(), &format!("shift-{seed}.csv"), &rows);
+        named.push(d.effects_added());
     }
     for effects in &named {
         assert_eq!(effects.first(), Some(&"force_offset"), "{named:?}");
@@ -489,14 +497,7 @@ fn a_load_cell_shift_after_the_first_tap_is_named_not_a_contact_shift() {
 #[test]
 fn a_drifting_zero_is_named_and_measured_and_coloured_noise_is_not_a_drift() {
     let dir = tempfile::tempdir().unwrap();
-    let diagnose = |name: &str, rows: Vec<(f64, f64, f64)>| {
-        let path = dir.path().join(name);
-        let mut text = String::from("time_s,position_m,force_n\n");
-        for (t, x, f) in rows {
-            text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
-        }
-        diagnose_as_a_user(&path, &text).unwrap().diagnosis
-    };
+    let diagnose = |name: &str, rows: Vec<(f64, f64, f64)>| diagnose_rows(dir.path(), name, &rows);
     for seed in 0..3 {
         let rate = if seed % 2 == 0 { 0.12 } else { -0.12 };
         let d = diagnose(
@@ -571,14 +572,7 @@ fn delayed_sine(seed: u64, lift_off: bool, delay_s: f64) -> Vec<(f64, f64, f64)>
 #[test]
 fn a_delay_is_not_tried_where_one_frequency_in_contact_cannot_show_it() {
     let dir = tempfile::tempdir().unwrap();
-    let diagnose = |name: &str, rows: Vec<(f64, f64, f64)>| {
-        let path = dir.path().join(name);
-        let mut text = String::from("time_s,position_m,force_n\n");
-        for (t, x, f) in rows {
-            text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
-        }
-        diagnose_as_a_user(&path, &text).unwrap().diagnosis
-    };
+    let diagnose = |name: &str, rows: Vec<(f64, f64, f64)>| diagnose_rows(dir.path(), name, &rows);
     for seed in 0..2 {
         let d = diagnose(&format!("in-{seed}.csv"), delayed_sine(seed, false, 0.03));
         assert!(
