@@ -549,8 +549,12 @@ impl FreeSpace {
         // too deep for some of them) is a misfit of the contact point, not a record that
         // never leaves contact, whose force follows the position all the way back.
         let reach = |i: usize| fit.contact_m - sign * series.position_m[i];
-        let far = 0.2 * idx.iter().map(|&i| reach(i)).fold(0.0, f64::max);
-        let trend: Vec<usize> = idx.iter().copied().filter(|&i| reach(i) >= far).collect();
+        let reach_m = idx.iter().map(|&i| reach(i)).fold(0.0, f64::max);
+        let trend: Vec<usize> = idx
+            .iter()
+            .copied()
+            .filter(|&i| reach(i) >= 0.2 * reach_m)
+            .collect();
         let slope = (trend.len() >= 3).then(|| {
             let u: Vec<f64> = trend.iter().map(|&i| sign * series.position_m[i]).collect();
             let f: Vec<f64> = trend.iter().map(|&i| unexplained[i]).collect();
@@ -583,10 +587,7 @@ impl FreeSpace {
             slope,
             block: series.block,
             force_range_n: fhi - flo,
-            reach_m: idx
-                .iter()
-                .map(|&i| fit.contact_m - sign * series.position_m[i])
-                .fold(0.0, f64::max),
+            reach_m,
             visible_m: if fit.family.has_exponent() {
                 0.0
             } else {
