@@ -283,10 +283,12 @@ impl ModelSpec {
                 bail!("field coulomb.slip_rate_m_per_s: must be > 0");
             }
         }
-        present("delay_s", Effect::TimeDelay, self.delay_s.is_some())?;
-        if let Some(d) = self.delay_s {
-            finite("delay_s", d)?;
-        }
+        // A signed quantity: given exactly when its effect is named, and finite.
+        let signed = |name: &str, effect: Effect, value: Option<f64>| -> Result<()> {
+            present(name, effect, value.is_some())?;
+            value.map_or(Ok(()), |v| finite(name, v))
+        };
+        signed("delay_s", Effect::TimeDelay, self.delay_s)?;
         present(
             "plastic_fraction",
             Effect::PlasticSet,
@@ -298,30 +300,21 @@ impl ModelSpec {
                 bail!("field plastic_fraction: must be < 1 (a set of the whole depth leaves no elastic recovery)");
             }
         }
-        present(
+        signed(
             "contact_shift_m",
             Effect::ContactPointOffset,
-            self.contact_shift_m.is_some(),
+            self.contact_shift_m,
         )?;
-        if let Some(s) = self.contact_shift_m {
-            finite("contact_shift_m", s)?;
-        }
-        present(
+        signed(
             "later_force_offset_n",
             Effect::ForceOffset,
-            self.later_force_offset_n.is_some(),
+            self.later_force_offset_n,
         )?;
-        if let Some(f) = self.later_force_offset_n {
-            finite("later_force_offset_n", f)?;
-        }
-        present(
+        signed(
             "force_drift_n_per_s",
             Effect::ForceDrift,
-            self.force_drift_n_per_s.is_some(),
+            self.force_drift_n_per_s,
         )?;
-        if let Some(d) = self.force_drift_n_per_s {
-            finite("force_drift_n_per_s", d)?;
-        }
         if self.position_sign != 1.0 && self.position_sign != -1.0 {
             bail!(
                 "field position_sign: {}, expected 1 or -1",
