@@ -181,16 +181,25 @@ pub fn save(charts: &[Chart], base: &Path) -> Result<()> {
     let height = 420 * charts.len().max(1) as u32;
     let png = base.with_extension("png");
     let svg = base.with_extension("svg");
-    render(
-        BitMapBackend::new(&png, (900, height)).into_drawing_area(),
-        charts,
-    )
-    .with_context(|| format!("drawing {}", png.display()))?;
-    render(
-        SVGBackend::new(&svg, (900, height)).into_drawing_area(),
-        charts,
-    )
-    .with_context(|| format!("drawing {}", svg.display()))?;
+    // (The two files are drawn in parallel.)
+    let (png_done, svg_done) = rayon::join(
+        || {
+            render(
+                BitMapBackend::new(&png, (900, height)).into_drawing_area(),
+                charts,
+            )
+            .with_context(|| format!("drawing {}", png.display()))
+        },
+        || {
+            render(
+                SVGBackend::new(&svg, (900, height)).into_drawing_area(),
+                charts,
+            )
+            .with_context(|| format!("drawing {}", svg.display()))
+        },
+    );
+    png_done?;
+    svg_done?;
     Ok(())
 }
 

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
 use super::catalogue::{Determination, Estimate};
@@ -566,7 +567,6 @@ pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<Str
             ),
         ],
     };
-    plots::save(&[fit_chart, hysteresis], &dir.join("fit"))?;
 
     let residual =
         |fit: &Fit| -> Vec<(f64, f64)> { t.iter().copied().zip(fit.residual(data)).collect() };
@@ -624,7 +624,6 @@ pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<Str
         y_label: "RMS residual [N]".into(),
         series: per_phase,
     };
-    plots::save(&[residual_chart, phase_chart], &dir.join("residual"))?;
 
     let lag_ms = 1e3 * data.dt;
     let acf = |l: &Localisation| -> Vec<(f64, f64)> {
@@ -659,7 +658,14 @@ pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<Str
             ),
         ],
     };
-    plots::save(&[acf_chart], &dir.join("autocorrelation"))?;
+    // (The three files are drawn in parallel.)
+    [
+        (vec![fit_chart, hysteresis], "fit"),
+        (vec![residual_chart, phase_chart], "residual"),
+        (vec![acf_chart], "autocorrelation"),
+    ]
+    .par_iter()
+    .try_for_each(|(charts, name)| plots::save(charts, &dir.join(name)))?;
     Ok(vec![
         "fit.png".into(),
         "residual.png".into(),

@@ -8,6 +8,7 @@ use std::collections::BTreeSet;
 
 use estimator_core::laws;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::catalogue::{
@@ -410,7 +411,9 @@ impl Problem<'_> {
         knobs: &[Knob],
         iterations: usize,
     ) -> Nonlinear {
+        // (Independent evaluations, in parallel; the minimum taken in grid order.)
         let on_grid = (0..=CONTACT_GRID)
+            .into_par_iter()
             .map(|g| {
                 let mut trial = nl;
                 let u = g as f64 / CONTACT_GRID as f64;
@@ -420,6 +423,8 @@ impl Problem<'_> {
                 );
                 (self.rss(&trial), trial)
             })
+            .collect::<Vec<_>>()
+            .into_iter()
             .min_by(|a, b| a.0.total_cmp(&b.0));
         match on_grid {
             Some((grid_rss, trial)) if grid_rss < rss => {
@@ -504,26 +509,25 @@ impl Problem<'_> {
         const H: f64 = 1e-3;
         for _ in 0..iterations {
             // Jacobian of the residual.
-            let mut jac = Vec::with_capacity(p);
-            for j in 0..p {
-                let step = if knobs[j] == Knob::ContactPosition {
-                    H
-                } else {
-                    1e-4
-                };
-                let h = if u[j] + step <= 1.0 { step } else { -step };
-                let mut uj = u.clone();
-                uj[j] += h;
-                let Some((rj, _)) = self.residual(&self.with(&nl, knobs, &uj)) else {
-                    return (nl, rss);
-                };
-                jac.push(
-                    rj.iter()
-                        .zip(&r)
-                        .map(|(a, b)| (a - b) / h)
-                        .collect::<Vec<f64>>(),
-                );
-            }
+            // (Its columns are independent evaluations, in parallel.)
+            let columns: Option<Vec<Vec<f64>>> = (0..p)
+                .into_par_iter()
+                .map(|j| {
+                    let step = if knobs[j] == Knob::ContactPosition {
+                        H
+                    } else {
+                        1e-4
+                    };
+                    let h = if u[j] + step <= 1.0 { step } else { -step };
+                    let mut uj = u.clone();
+                    uj[j] += h;
+                    let (rj, _) = self.residual(&self.with(&nl, knobs, &uj))?;
+                    Some(rj.iter().zip(&r).map(|(a, b)| (a - b) / h).collect())
+                })
+                .collect();
+            let Some(jac) = columns else {
+                return (nl, rss);
+            };
             let a = DMatrix::from_fn(p, p, |j, k| {
                 jac[j].iter().zip(&jac[k]).map(|(x, y)| x * y).sum::<f64>()
             });
@@ -696,9 +700,17 @@ fn fit_on(
             }
         };
         let mut best = (problem.to_unit(k, nl.get(k)), problem.rss(&nl), nl);
-        for g in (0..=effort.grid).filter(|_| effort.grid > 0) {
-            let u = g as f64 / effort.grid as f64;
-            let (rss, trial) = at(u, &nl, effort.both_starts);
+        // (The grid's points are independent fits, in parallel; the best taken in grid
+        // order.)
+        let grid: Vec<(f64, (f64, Nonlinear))> = (0..=effort.grid)
+            .into_par_iter()
+            .filter(|_| effort.grid > 0)
+            .map(|g| {
+                let u = g as f64 / effort.grid as f64;
+                (u, at(u, &nl, effort.both_starts))
+            })
+            .collect();
+        for (u, (rss, trial)) in grid {
             if rss < best.1 {
                 best = (u, rss, trial);
             }
