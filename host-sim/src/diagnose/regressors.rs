@@ -287,14 +287,17 @@ pub(super) fn design(
             // (⌊x⌋ clamped at 0: `as` saturates negatives to 0 and truncates the rest.)
             ((start + i) as f64 - shift) as usize
         };
-        let (lo, hi) = (
-            data.block_min_depth_m[b.min(data.len() - 1)],
-            data.block_max_depth_m[(b + 1).min(data.len() - 1)],
+        // (Undelayed, the block's raw samples are its own; a delayed block's window
+        // spans two blocks of the record.)
+        let last = data.len() - 1;
+        let (mut lo, mut hi) = (
+            data.block_min_depth_m[b.min(last)],
+            data.block_max_depth_m[b.min(last)],
         );
-        let (lo, hi) = (
-            lo.min(data.block_min_depth_m[(b + 1).min(data.len() - 1)]),
-            hi.max(data.block_max_depth_m[b.min(data.len() - 1)]),
-        );
+        if shift != 0.0 {
+            lo = lo.min(data.block_min_depth_m[(b + 1).min(last)]);
+            hi = hi.max(data.block_max_depth_m[(b + 1).min(last)]);
+        }
         // So is a block in which the motion reverses when Coulomb friction is modelled.
         let reverses = has(Effect::CoulombFriction) && {
             let (a, b) = (
@@ -307,7 +310,12 @@ pub(super) fn design(
             let mut sum = (0.0, 0.0, 0.0, 0.0, 0.0);
             for j in 0..block {
                 let raw = ((start + i) * block + j) as f64 - shift * block as f64;
-                let dj = interp(&data.raw_depth_m, raw) - reference;
+                // (Undelayed, a raw sample itself: the interpolation's value there.)
+                let dj = if shift == 0.0 {
+                    data.raw_depth_m[(start + i) * block + j]
+                } else {
+                    interp(&data.raw_depth_m, raw)
+                } - reference;
                 if dj <= 0.0 {
                     // Out of contact every term is 0 (adding +0 changes no sum).
                     continue;
