@@ -79,8 +79,7 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
 /// contact, beyond the search range, and an exponential law stood in for the power law
 /// from there), and every row that never leaves contact: 15-17/20 → 19-20/20, QLV
 /// 6/20 → 18/20.)
-const BELOW_TARGET: [(Structure, MaterialKind); 6] = [
-    (Structure::ContactSinesBrief, MaterialKind::KelvinVoigt),
+const BELOW_TARGET: [(Structure, MaterialKind); 5] = [
     (Structure::RampLoadUnload, MaterialKind::KelvinVoigt),
     (Structure::RampHold, MaterialKind::KelvinVoigt),
     (Structure::Taps, MaterialKind::KelvinVoigt),
@@ -590,6 +589,38 @@ fn a_delay_is_not_tried_where_one_frequency_in_contact_cannot_show_it() {
             !d.unidentifiable.contains(&Effect::TimeDelay),
             "seed {seed}: {:?}",
             d.unidentifiable
+        );
+    }
+}
+
+/// A delay is named only where the record's contact edges show it. On clean
+/// Kelvin-Voigt taps of the structure generator (seeds 3013 and 3018, where a 2026-11-24
+/// main named a delay that fitted a misfit away from the edges) the delay candidate
+/// passes the information criterion but is refused for its edges, and nothing is named.
+/// (That real delays pass: the hidden-effect sweep's delay rows, and its quick run in
+/// `cargo test`.)
+#[test]
+fn a_delay_the_contact_edges_do_not_show_is_not_named() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in [3013, 3018] {
+        let r = generate(Structure::Taps, MaterialKind::KelvinVoigt, seed);
+        let run = diagnose_as_a_user(&dir.path().join(format!("taps-{seed}.csv")), &r.to_csv())
+            .expect("diagnosed");
+        let d = &run.diagnosis;
+        assert!(
+            !d.effects_added().contains(&"time_delay"),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+        let refused = d
+            .steps
+            .iter()
+            .flat_map(|s| &s.candidates)
+            .chain(&d.final_candidates)
+            .any(|c| c.effect == Effect::TimeDelay && c.unseen_at_contact_edges);
+        assert!(
+            refused,
+            "seed {seed}: the delay was not refused for its edges"
         );
     }
 }

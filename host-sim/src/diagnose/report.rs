@@ -206,6 +206,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "no (its parameter stayed at the current model's value)"
             } else if c.unseen_in_free_space {
                 "no (the free-space force shows no such trend)"
+            } else if c.unseen_at_contact_edges {
+                "no (the contact onsets and lift-offs do not show it)"
             } else {
                 "no"
             },
