@@ -533,16 +533,10 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     // on a chirp (the structure sweep's clean taps, seeds 3013 and 3018;
                     // the independent generator's inertia chirps).
                     let tau = scored.fit.parameter(Param::DelayS).unwrap_or(0.0);
-                    let (onsets, lift_offs) = scoring::contact_edges(data, data.fit_start());
-                    let shown = onsets + lift_offs > 0 && {
-                        let (with, without, _) = scoring::edge_rss(
-                            data,
-                            &scored.fit,
-                            &current,
-                            2.0 * tau.abs() + 2.0 * data.dt,
-                        );
-                        with <= EDGE_RSS_MAX_RATIO * without
-                    };
+                    let half_width = 2.0 * tau.abs() + 2.0 * data.dt;
+                    let edges = scoring::edge_rss(data, &scored.fit, &current, half_width);
+                    let shown = matches!(edges, Some((with, without))
+                        if with <= EDGE_RSS_MAX_RATIO * without);
                     if !shown {
                         scored.significant = false;
                         scored.unseen_at_contact_edges = true;

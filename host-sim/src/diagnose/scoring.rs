@@ -147,27 +147,23 @@ pub(super) fn free_runs(data: &Prepared, start: usize) -> Vec<(usize, usize)> {
     runs
 }
 
-/// The detector's contact onsets and lift-offs after `start`: (onsets, lift-offs).
-pub fn contact_edges(data: &Prepared, start: usize) -> (usize, usize) {
-    data.contact[start..]
-        .windows(2)
-        .fold((0, 0), |(on, off), w| match (w[0], w[1]) {
-            (false, true) => (on + 1, off),
-            (true, false) => (on, off + 1),
-            _ => (on, off),
-        })
-}
-
 /// The residual sums of squares \[N²\] of `fit` and `current` over the samples within
 /// `half_width_s` of a contact onset or lift-off (the detector's transitions after the fit
-/// window's start), and how many samples that is.
-pub fn edge_rss(data: &Prepared, fit: &Fit, current: &Fit, half_width_s: f64) -> (f64, f64, usize) {
+/// window's start); `None` where the window has neither.
+pub fn edge_rss(
+    data: &Prepared,
+    fit: &Fit,
+    current: &Fit,
+    half_width_s: f64,
+) -> Option<(f64, f64)> {
     let start = fit.start.max(current.start);
     let w = (half_width_s / data.dt).ceil() as usize;
     let n = data.len();
     let mut near = vec![false; n];
+    let mut edges = false;
     for i in (start + 1)..n {
         if data.contact[i] != data.contact[i - 1] {
+            edges = true;
             for flag in &mut near[i.saturating_sub(w).max(start)..(i + w + 1).min(n)] {
                 *flag = true;
             }
@@ -179,7 +175,7 @@ pub fn edge_rss(data: &Prepared, fit: &Fit, current: &Fit, half_width_s: f64) ->
             .map(|i| (data.force_n[i] - f.prediction[i - f.start]).powi(2))
             .sum()
     };
-    (rss(fit), rss(current), near.iter().filter(|b| **b).count())
+    edges.then(|| (rss(fit), rss(current)))
 }
 
 /// |t| a drift's slope must reach in the free space ([`free_space_trend`]).
