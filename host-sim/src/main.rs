@@ -478,11 +478,15 @@ fn diagnose_one(
     for (i, s) in d.steps.iter().enumerate() {
         let _ = writeln!(
             text,
-            "  step {}: + {}{}  NRMSE {:.3} % -> {:.3} %, BIC {:.0} -> {:.0}",
+            "  step {}: + {}{}{}  NRMSE {:.3} % -> {:.3} %, BIC {:.0} -> {:.0}",
             i + 1,
             s.effect.id(),
             s.replaces
                 .map_or(String::new(), |e| format!(" (replaces {})", e.id())),
+            s.jointly_with.map_or(String::new(), |e| format!(
+                " (jointly with {}: neither passes alone)",
+                e.id()
+            )),
             s.before.nrmse_percent,
             s.after.nrmse_percent,
             s.before.bic,

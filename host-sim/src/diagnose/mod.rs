@@ -183,6 +183,11 @@ pub struct Step {
     pub indistinguishable_from: Vec<Indistinguishable>,
     /// The effect it replaced, if any (power law ↔ exponential elasticity).
     pub replaces: Option<Effect>,
+    /// The other effect of a pair named together (set on both of its steps): neither
+    /// passed the acceptance rule alone, the pair did (`joint_pair`). The first step's
+    /// `after` is its effect alone; the second's `candidates` hold the pair, scored
+    /// against the model before the first.
+    pub jointly_with: Option<Effect>,
     /// The model before and after.
     pub before: Fit,
     /// After (jointly refitted).
@@ -580,6 +585,39 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
         let Some((best, indistinguishable_from)) =
             choose(data, &candidates, options, noise_fraction)
         else {
+            // Neither of two effects may pass alone where the record shows each in
+            // one place only: tried in pairs, and both named if the pair passes.
+            let pair = (steps.len() + 2 <= options.max_steps)
+                .then(|| joint_pair(data, &effects, &current, &candidates, setting))
+                .flatten();
+            if let Some(JointPair { first, second }) = pair {
+                effects.insert(first.effect);
+                effects.insert(second.effect);
+                steps.push(Step {
+                    effect: first.effect,
+                    indistinguishable_from: Vec::new(),
+                    replaces: None,
+                    jointly_with: Some(second.effect),
+                    localisation_before: localise(data, &current),
+                    localisation_after: localise(data, &first.fit),
+                    before: current,
+                    after: first.fit.clone(),
+                    candidates,
+                });
+                steps.push(Step {
+                    effect: second.effect,
+                    indistinguishable_from: Vec::new(),
+                    replaces: None,
+                    jointly_with: Some(first.effect),
+                    localisation_before: localise(data, &first.fit),
+                    localisation_after: localise(data, &second.fit),
+                    before: first.fit,
+                    after: second.fit.clone(),
+                    candidates: vec![second.clone()],
+                });
+                current = second.fit;
+                continue;
+            }
             final_candidates = candidates;
             break;
         };
@@ -592,6 +630,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             effect: best.effect,
             indistinguishable_from,
             replaces: best.replaces,
+            jointly_with: None,
             localisation_before: localise(data, &current),
             localisation_after: localise(data, &best.fit),
             before: current,
@@ -660,6 +699,100 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
         damping_held,
         onset_damping_delta_bic: None,
     })
+}
+
+/// Candidates tried in pairs where none passes alone: the best few by BIC.
+pub const PAIRED: usize = 3;
+
+/// Two effects named together ([`joint_pair`]).
+struct JointPair {
+    /// The first, as it was fitted alone (it did not pass the acceptance rule alone).
+    first: Candidate,
+    /// The second, with the pair's joint fit and its score against the model before
+    /// the first.
+    second: Candidate,
+}
+
+/// Two effects that pass the acceptance rule together where neither passes alone. A
+/// Hunt-Crossley ramp-and-hold shows its law at two brief ramps only: the depth damping
+/// alone fits the ramp out and misfits the ramp in, held out, and the power law alone
+/// gains too little; together they fit both (the structure sweep's seed 3000: NRMSE
+/// 0.859 → 0.468 %, where nothing was named). Among the [`PAIRED`] physical candidates
+/// (added, not swapped, and not refused for what the record does not show) whose BIC
+/// falls by more than the threshold, the best by BIC first, each pair that can coexist is
+/// fitted jointly from the two fits. A pair is named when it passes the rule against the
+/// current model and each of its effects lowers the BIC of the other alone by more than
+/// the threshold (neither a passenger); of several, the best by held-out error.
+fn joint_pair(
+    data: &Prepared,
+    effects: &BTreeSet<Effect>,
+    current: &Fit,
+    candidates: &[Candidate],
+    setting: &Setting,
+) -> Option<JointPair> {
+    let (options, duration_s, noise_fraction) =
+        (setting.options, setting.duration_s, setting.noise_fraction);
+    let mut singles: Vec<&Candidate> = candidates
+        .iter()
+        .filter(|c| {
+            c.physical
+                && !c.nested
+                && !c.unseen_at_contact_edges
+                && !c.unseen_in_free_space
+                && c.replaces.is_none()
+                && c.delta_bic < -options.min_bic_drop
+        })
+        .collect();
+    singles.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    singles.truncate(PAIRED);
+    let pairs: Vec<(&Candidate, &Candidate)> = singles
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| singles[i + 1..].iter().map(move |b| (*a, *b)))
+        .filter(|(a, b)| !a.effect.conflicts_with(b.effect))
+        .collect();
+    pairs
+        .into_par_iter()
+        .filter_map(|(a, b)| {
+            let mut with = effects.clone();
+            with.insert(a.effect);
+            with.insert(b.effect);
+            let mut start = a.fit.nonlinear;
+            if let Some(k) = b.effect.knob() {
+                start.set(k, b.fit.nonlinear.get(k));
+            }
+            let pair = fit(data, &with, &start, &[], Effort::REFINE)?;
+            let gain_over = |alone: &Fit, added: Effect| {
+                score(
+                    added,
+                    None,
+                    pair.clone(),
+                    alone,
+                    options,
+                    duration_s,
+                    noise_fraction,
+                )
+                .delta_bic
+            };
+            let needs_both = gain_over(&a.fit, b.effect) < -options.min_bic_drop
+                && gain_over(&b.fit, a.effect) < -options.min_bic_drop;
+            let second = score(
+                b.effect,
+                None,
+                pair,
+                current,
+                options,
+                duration_s,
+                noise_fraction,
+            );
+            (second.significant && needs_both).then(|| JointPair {
+                first: a.clone(),
+                second,
+            })
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .min_by(|x, y| x.second.fit.cv_rmse.total_cmp(&y.second.fit.cv_rmse))
 }
 
 /// The significant candidate to name and the others the record cannot tell apart from

@@ -80,6 +80,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
             json!({
                 "effect": s.effect.id(),
                 "replaces": s.replaces.map(|e| e.id()),
+                "jointly_with": s.jointly_with.map(|e| e.id()),
                 "parameters": parameters,
                 "standard_errors": uncertainties,
                 "undetermined": undetermined_json(&s.after),
@@ -216,6 +217,40 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
     }
 }
 
+/// What a step of a pair named together means ([`Step::jointly_with`]).
+fn joint_text(out: &mut String, d: &Diagnosis, i: usize, min_bic_drop: f64) {
+    let s = &d.steps[i];
+    let Some(other) = s.jointly_with else {
+        return;
+    };
+    let first = d
+        .steps
+        .get(i + 1)
+        .is_some_and(|n| n.jointly_with == Some(s.effect));
+    if first {
+        let _ = writeln!(
+            out,
+            "\nNo candidate passes the rule alone. The {} best by BIC were tried in pairs: `{}` with `{}` passes it against this model, and each lowers the BIC of the other alone by more than {}; both are named (steps {} and {}). This step's parameters and NRMSE are `{}` alone.",
+            super::PAIRED,
+            s.effect.id(),
+            other.id(),
+            min_bic_drop,
+            i + 1,
+            i + 2,
+            s.effect.id()
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "\nThe pair `{}` + `{}` (step {} and this one), fitted jointly and scored against the model before step {}: the row above.",
+            other.id(),
+            s.effect.id(),
+            i,
+            i
+        );
+    }
+}
+
 fn localisation_text(out: &mut String, l: &Localisation) {
     let outside: Vec<String> = l
         .autocorrelation
@@ -310,12 +345,13 @@ pub fn markdown(
     );
     let _ = writeln!(
         out,
-        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error (by BIC where another accepted one's BIC is lower by more than that threshold) is added, and the loop repeats (at most {} steps). At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
+        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error (by BIC where another accepted one's BIC is lower by more than that threshold) is added, and the loop repeats (at most {} steps). Where none passes alone, the {} best by BIC are tried in pairs, fitted jointly: a pair that passes, each of whose effects lowers the BIC of the other alone by more than that threshold, is named in two steps. At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
         options.min_bic_drop,
         super::scoring::FOLDS,
         100.0 * options.min_cv_improvement,
         options.min_folds_better,
-        options.max_steps
+        options.max_steps,
+        super::PAIRED
     );
     let _ = writeln!(
         out,
@@ -342,11 +378,13 @@ pub fn markdown(
     for (i, s) in d.steps.iter().enumerate() {
         let _ = writeln!(
             out,
-            "| {} | `{}`{} | {} | {:.3} → {:.3} | {:.0} → {:.0} |",
+            "| {} | `{}`{}{} | {} | {:.3} → {:.3} | {:.0} → {:.0} |",
             i + 1,
             s.effect.id(),
             s.replaces
                 .map_or(String::new(), |e| format!(" (replaces `{}`)", e.id())),
+            s.jointly_with
+                .map_or(String::new(), |e| format!(" (jointly with `{}`)", e.id())),
             parameters_text(&s.after),
             s.before.nrmse_percent,
             s.after.nrmse_percent,
@@ -483,6 +521,7 @@ pub fn markdown(
         localisation_text(&mut out, &s.localisation_before);
         out.push('\n');
         candidates_table(&mut out, &s.candidates);
+        joint_text(&mut out, d, i, options.min_bic_drop);
     }
     let _ = writeln!(out, "\n## Final model `{}`\n", d.final_model());
     localisation_text(&mut out, &d.final_localisation);
