@@ -5,6 +5,7 @@
 use super::catalogue::Effect;
 use super::data::Prepared;
 use super::Diagnosis;
+use crate::phases::Phase;
 
 /// How much the penetration rate varies at a given depth, relative to its RMS, over the
 /// contact samples of the fit window: √(mean within-bin variance of δ̇) / RMS δ̇, with
@@ -17,20 +18,34 @@ pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
     spread_at_depth(data, start, |v| v)
 }
 
-/// [`rate_spread_at_depth`] of the speed |δ̇|: about 0 also on a record that passes each
-/// depth at one speed in each direction (a load/unload triangle at one speed), where a
-/// sign law, Coulomb friction F_c·sign δ̇, is the linear damping's λ·δ̇ = ±λv and δ̈
-/// vanishes but at the reversals. Below [`RATE_SPREAD_MIN`], Coulomb friction and
-/// inertia are not identifiable.
+/// [`rate_spread_at_depth`] of the speed |δ̇| while the probe moves (holds left out):
+/// about 0 also on a record that passes each depth at one speed in each direction (a
+/// load/unload triangle at one speed, a ramp-and-hold), where a sign law, Coulomb
+/// friction F_c·sign δ̇, is the linear damping's λ·δ̇ = ±λv and δ̈ vanishes but at the
+/// reversals and velocity steps. A hold adds nothing to tell them apart: friction,
+/// damping and a mass all vanish there (counted, the hold at the deepest point made a
+/// ramp-and-hold look like two speeds, and clean ones were given Coulomb friction or a
+/// mass for the timing of the damping's step). Below [`RATE_SPREAD_MIN`], Coulomb
+/// friction and inertia are not identifiable.
 pub fn speed_spread_at_depth(data: &Prepared, start: usize) -> f64 {
-    spread_at_depth(data, start, f64::abs)
+    spread_at_depth_where(data, start, f64::abs, |i| data.phase[i] != Phase::Hold)
 }
 
 /// The within-depth-bin spread of `of(δ̇)` relative to its RMS (see
 /// [`rate_spread_at_depth`]).
 fn spread_at_depth(data: &Prepared, start: usize, of: impl Fn(f64) -> f64) -> f64 {
+    spread_at_depth_where(data, start, of, |_| true)
+}
+
+/// [`spread_at_depth`] over the in-contact samples `keep` accepts.
+fn spread_at_depth_where(
+    data: &Prepared,
+    start: usize,
+    of: impl Fn(f64) -> f64,
+    keep: impl Fn(usize) -> bool,
+) -> f64 {
     let mut samples: Vec<(f64, f64)> = (start..data.len())
-        .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0)
+        .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0 && keep(i))
         .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
         .collect();
     if samples.len() < 40 {
@@ -66,7 +81,7 @@ pub const RATE_SPREAD_MIN: f64 = 0.2;
 pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
     if d.one_speed_each_way_only() && matches!(e, Effect::CoulombFriction | Effect::Inertia) {
         (
-            "each depth is passed at one speed in each direction: Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ is a function of depth too: on constant-speed strokes it vanishes but at the reversals, where a sampled record cannot place the step within a sample; on an oscillation at one frequency ω it is −ω²·(δ − δ₀), so a mass is a stiffness −mω² and a constant",
+            "each depth is passed at one speed in each direction (holds aside, where friction, damping and a mass all vanish): Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ is a function of depth too: on constant-speed strokes it vanishes but at the reversals and velocity steps, where a sampled record cannot place the step within a sample; on an oscillation at one frequency ω it is −ω²·(δ − δ₀), so a mass is a stiffness −mω² and a constant",
             "a second speed (damping scales with it, friction does not) or a second frequency (a mass's force is then no function of depth)",
         )
     } else if e == Effect::PlasticSet {
