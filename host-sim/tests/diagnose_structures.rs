@@ -693,3 +693,26 @@ fn a_hold_does_not_make_friction_or_a_mass_identifiable() {
         }
     }
 }
+
+/// A load/unload ramp at 100 Hz has too little free space to measure the sensor noise's
+/// colour on (under 100 fitting samples), so the BIC counted every sample: a clean
+/// Kelvin-Voigt log with AR(1) noise (φ = 0.90, seed 3016) was given a force drift and a
+/// power law, and one whose 100 Hz samples are correlated by the resampling (seed 3011)
+/// an exponential law. Where a model's residual is at the noise floor, its own colour now
+/// sets the effective samples (`scoring::residual_fraction`), and nothing is named.
+#[test]
+fn without_free_space_the_residual_colour_counts_the_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in [3011, 3016] {
+        let r = generate(Structure::RampLoadUnload, MaterialKind::KelvinVoigt, seed);
+        let run = diagnose_as_a_user(&dir.path().join(format!("lu-{seed}.csv")), &r.to_csv())
+            .expect("diagnosed");
+        let d = &run.diagnosis;
+        assert!(d.noise_sample_fraction.is_none(), "seed {seed}: free space");
+        assert!(
+            d.effects_added().is_empty(),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+    }
+}

@@ -361,7 +361,7 @@ pub fn markdown(
                 "The sensor noise on the free-space stretches is coloured: the BIC counts N_eff = {:.3} N effective samples (1 for white noise).",
                 f
             ),
-            None => "The record has no free space to measure the noise's colour on (under 100 free samples, or none the front end could confirm): the BIC counts every sample.".to_string(),
+            None => "The record has no free space to measure the noise's colour on (under 100 free samples, or none the front end could confirm): the BIC counts the effective samples of each model's own residual, from its autocorrelation, where that residual is within 1.5 noise deviations of one fitting sample (it is then the noise), and every sample where it is larger (a misfit, which the held-out error judges).".to_string(),
         }
     );
     out.push_str("## Steps\n\n");

@@ -166,6 +166,13 @@ pub struct Fit {
     pub cv_rmse_per_fold: Vec<f64>,
     /// Their mean \[N\].
     pub cv_rmse: f64,
+    /// N_eff / N of this fit's own residual
+    /// ([`residual_fraction`](super::scoring::residual_fraction)) where its RMS is within
+    /// [`NOISE_FLOOR_FIT`] of the noise of one fitting sample, else 1: what the BIC counts
+    /// on a record without free space to measure the sensor noise's colour on (1, not
+    /// computed, on a record with it).
+    #[serde(skip)]
+    pub residual_sample_fraction: f64,
     /// Model force over the fit window \[N\].
     #[serde(skip)]
     pub prediction: Vec<f64>,
@@ -568,6 +575,12 @@ impl Problem<'_> {
     }
 }
 
+/// Residual RMS, in noise deviations of one fitting sample, up to which a fit's residual
+/// is taken for the sensor noise (its colour then sets the BIC's effective samples on a
+/// record without free space, [`Fit::residual_sample_fraction`]): the issue's own bound
+/// for a final model at the noise floor.
+pub const NOISE_FLOOR_FIT: f64 = 1.5;
+
 /// Fits `effects` (on top of Kelvin-Voigt, with the contact-position refinement always
 /// present) starting from the nonlinear values `initial`. Each knob in `global` (other
 /// than the contact position) is searched over its whole range on a grid of 13 points,
@@ -764,6 +777,17 @@ fn fit_on(
     let k = design.columns.len() + knobs_of(effects).len();
     let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + k as f64 * (n as f64).ln();
     let cv = cross_validate(&design, y);
+    // Only a residual at the noise floor measures the noise's colour; a larger one is
+    // the misfit's, which the held-out error judges (counted by its own colour, a model
+    // one effect short leaves too few samples for any effect to pass).
+    let residual_sample_fraction = if rss <= (NOISE_FLOOR_FIT * data.noise_n).powi(2) * n as f64
+        && !super::scoring::free_space_shows_noise(data)
+    {
+        let residual: Vec<f64> = y.iter().zip(&prediction).map(|(y, p)| y - p).collect();
+        super::scoring::residual_fraction(&residual)
+    } else {
+        1.0
+    };
     let sigma2 = rss / (n - design.columns.len()).max(1) as f64;
     let se: Vec<f64> = (0..solve.beta.len())
         .map(|j| (sigma2 * solve.covariance[(j, j)]).max(0.0).sqrt())
@@ -792,6 +816,7 @@ fn fit_on(
         free_parameters: k,
         cv_rmse: cv.iter().sum::<f64>() / cv.len().max(1) as f64,
         cv_rmse_per_fold: cv,
+        residual_sample_fraction,
         prediction,
         start,
     })
