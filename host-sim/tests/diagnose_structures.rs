@@ -34,7 +34,7 @@ use std::collections::BTreeMap;
 use host_sim::diagnose::catalogue::{Effect, Param};
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::{diagnose_file, FileDiagnosis};
-use host_sim::recordings::{generate, MaterialKind, Structure};
+use host_sim::recordings::{generate, MaterialKind, Recording, Structure};
 use host_sim::setup::Overrides;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -126,6 +126,20 @@ fn diagnose_as_a_user(path: &std::path::Path, csv: &str) -> anyhow::Result<FileD
         &Overrides::default(),
         None,
     )
+}
+
+/// The generator's log of `structure` × `material` × `seed`, written into `dir` and
+/// diagnosed as a user would: the recording (its truth) and the diagnosis.
+fn diagnose_generated(
+    dir: &std::path::Path,
+    structure: Structure,
+    material: MaterialKind,
+    seed: u64,
+) -> (Recording, Diagnosis) {
+    let r = generate(structure, material, seed);
+    let path = dir.join(format!("{}-{material:?}-{seed}.csv", structure.name()));
+    let run = diagnose_as_a_user(&path, &r.to_csv()).expect("diagnosed");
+    (r, run.diagnosis)
 }
 
 fn diagnose_log(
@@ -603,10 +617,8 @@ fn a_delay_is_not_tried_where_one_frequency_in_contact_cannot_show_it() {
 fn a_delay_the_contact_edges_do_not_show_is_not_named() {
     let dir = tempfile::tempdir().unwrap();
     for seed in [3013, 3018] {
-        let r = generate(Structure::Taps, MaterialKind::KelvinVoigt, seed);
-        let run = diagnose_as_a_user(&dir.path().join(format!("taps-{seed}.csv")), &r.to_csv())
-            .expect("diagnosed");
-        let d = &run.diagnosis;
+        let (_, d) =
+            diagnose_generated(dir.path(), Structure::Taps, MaterialKind::KelvinVoigt, seed);
         assert!(
             !d.effects_added().contains(&"time_delay"),
             "seed {seed}: {:?}",
@@ -634,10 +646,12 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
 #[test]
 fn two_effects_that_pass_only_together_are_named_together() {
     let dir = tempfile::tempdir().unwrap();
-    let r = generate(Structure::RampHold, MaterialKind::HuntCrossley, 3000);
-    let run =
-        diagnose_as_a_user(&dir.path().join("ramp-hold-3000.csv"), &r.to_csv()).expect("diagnosed");
-    let d = &run.diagnosis;
+    let (r, d) = diagnose_generated(
+        dir.path(),
+        Structure::RampHold,
+        MaterialKind::HuntCrossley,
+        3000,
+    );
     let mut added = d.effects_added();
     added.sort_unstable();
     assert_eq!(
@@ -678,10 +692,12 @@ fn two_effects_that_pass_only_together_are_named_together() {
 fn a_hold_does_not_make_friction_or_a_mass_identifiable() {
     let dir = tempfile::tempdir().unwrap();
     for seed in [3009, 3015] {
-        let r = generate(Structure::RampHold, MaterialKind::KelvinVoigt, seed);
-        let run = diagnose_as_a_user(&dir.path().join(format!("rh-{seed}.csv")), &r.to_csv())
-            .expect("diagnosed");
-        let d = &run.diagnosis;
+        let (_, d) = diagnose_generated(
+            dir.path(),
+            Structure::RampHold,
+            MaterialKind::KelvinVoigt,
+            seed,
+        );
         assert!(
             d.effects_added().is_empty(),
             "seed {seed}: {:?}",
@@ -704,10 +720,12 @@ fn a_hold_does_not_make_friction_or_a_mass_identifiable() {
 fn without_free_space_the_residual_colour_counts_the_samples() {
     let dir = tempfile::tempdir().unwrap();
     for seed in [3011, 3016] {
-        let r = generate(Structure::RampLoadUnload, MaterialKind::KelvinVoigt, seed);
-        let run = diagnose_as_a_user(&dir.path().join(format!("lu-{seed}.csv")), &r.to_csv())
-            .expect("diagnosed");
-        let d = &run.diagnosis;
+        let (_, d) = diagnose_generated(
+            dir.path(),
+            Structure::RampLoadUnload,
+            MaterialKind::KelvinVoigt,
+            seed,
+        );
         assert!(d.noise_sample_fraction.is_none(), "seed {seed}: free space");
         assert!(
             d.effects_added().is_empty(),
