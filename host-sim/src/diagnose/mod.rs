@@ -331,7 +331,9 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             // A drift of the zero is a slope in time: free space at two times, a contact
             // between them, shows it; with one stretch of free space a slope in time is
             // the contact's own (relaxation, creep, the law along a monotonic stroke).
-            Effect::ForceDrift => hold_tare || free_runs(data, data.fit_start()).len() < 2,
+            Effect::ForceDrift => {
+                hold_tare || free_runs(data, data.fit_start(), MIN_FREE_STRETCH).len() < 2
+            }
             Effect::CoulombFriction | Effect::Inertia => one_speed || one_speed_each_way,
             Effect::TimeDelay => one_speed || one_frequency_in_contact,
             _ => one_speed && e.is_rate_effect(),

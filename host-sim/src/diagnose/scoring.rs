@@ -59,9 +59,10 @@ pub fn delta_bic(a: &Fit, b: &Fit, n_eff: f64, floor: f64) -> f64 {
 }
 
 /// The effective samples a fit's BIC counts: its N times the noise's
-/// [`noise_sample_fraction`], or N when the record has no free space to measure the noise
-/// on (its colour is then unknown: counting by the residual's own autocorrelation would count a
-/// missing effect as coloured noise and reject it).
+/// [`noise_sample_fraction`], or, when the record has no free space to measure the noise
+/// on, times the fit's own [`Fit::residual_sample_fraction`] (the residual's colour where
+/// it is at the noise floor, 1 where it is larger: a larger residual's colour is the
+/// misfit's, and counting by it would reject the missing effect).
 pub(super) fn samples_counted(fit: &Fit, noise_fraction: Option<f64>) -> f64 {
     let f = noise_fraction.unwrap_or(fit.residual_sample_fraction);
     (f * fit.samples as f64).max(2.0)
@@ -75,8 +76,9 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
     if !free_space_shows_noise(data) {
         return None;
     }
-    let mut runs: Vec<Vec<f64>> = free_stretches(data)
-        .map(|(a, b)| data.force_n[a..b].to_vec())
+    let mut runs: Vec<Vec<f64>> = free_runs(data, 0, NOISE_STRETCH)
+        .into_iter()
+        .map(|(a, run)| data.force_n[a..a + run].to_vec())
         .collect();
     // Each stretch detrended (its least-squares line removed): a slow drift of the
     // free-space force (hydrodynamic drag on an approach, thermal drift) is not noise.
@@ -87,33 +89,21 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
     Some(effective_fraction(&runs))
 }
 
-/// The stretches (first, end) of at least 20 consecutive fitting samples out of contact.
-fn free_stretches(data: &Prepared) -> impl Iterator<Item = (usize, usize)> + '_ {
-    let n = data.contact.len();
-    let mut i = 0;
-    std::iter::from_fn(move || {
-        while i < n {
-            while i < n && data.contact[i] {
-                i += 1;
-            }
-            let a = i;
-            while i < n && !data.contact[i] {
-                i += 1;
-            }
-            if i - a >= 20 {
-                return Some((a, i));
-            }
-        }
-        None
-    })
-}
+/// Fewest consecutive free fitting samples of a stretch [`noise_sample_fraction`] measures
+/// the noise on.
+pub const NOISE_STRETCH: usize = 20;
 
 /// Whether [`noise_sample_fraction`] measures the noise: a front end that confirmed the
 /// free space ("free space" behind a contact point it could not confirm may still carry
 /// contact force: it measures misfit, not noise) and at least 100 samples in its
-/// stretches of 20 or more.
+/// stretches of [`NOISE_STRETCH`] or more.
 pub fn free_space_shows_noise(data: &Prepared) -> bool {
-    !data.offset_unidentified && free_stretches(data).map(|(a, b)| b - a).sum::<usize>() >= 100
+    !data.offset_unidentified
+        && free_runs(data, 0, NOISE_STRETCH)
+            .iter()
+            .map(|(_, run)| run)
+            .sum::<usize>()
+            >= 100
 }
 
 /// Removes the least-squares line of `run` (at least 2 values) from it.
@@ -178,14 +168,14 @@ pub fn effective_fraction(runs: &[&[f64]]) -> f64 {
     1.0 / (1.0 + 2.0 * sum)
 }
 
-/// The stretches of at least [`super::MIN_FREE_STRETCH`] consecutive fitting samples out
-/// of contact (by the detector) from `start` on: (first sample − `start`, length).
-pub(super) fn free_runs(data: &Prepared, start: usize) -> Vec<(usize, usize)> {
+/// The stretches of at least `min_len` consecutive fitting samples out of contact (by the
+/// detector) from `start` on: (first sample − `start`, length).
+pub(super) fn free_runs(data: &Prepared, start: usize, min_len: usize) -> Vec<(usize, usize)> {
     let contact = &data.contact[start..];
     let (mut i, mut runs) = (0, Vec::new());
     while i < contact.len() {
         let run = contact[i..].iter().take_while(|c| !**c).count();
-        if run >= super::MIN_FREE_STRETCH {
+        if run >= min_len {
             runs.push((i, run));
         }
         i += run.max(1);
@@ -246,7 +236,7 @@ pub fn free_space_trend(
     // The fitting samples' own scatter about each stretch's mean, pooled: the noise of a
     // fitting sample as the record has it (block means of coloured noise are noisier than
     // `data.noise_n`'s white-noise scaling).
-    let runs = free_runs(data, start);
+    let runs = free_runs(data, start, super::MIN_FREE_STRETCH);
     let mean = |(i, run): (usize, usize)| r[i..i + run].iter().sum::<f64>() / run as f64;
     let (ss, dof) = runs.iter().fold((0.0, 0usize), |(ss, dof), &(i, run)| {
         let m = mean((i, run));
