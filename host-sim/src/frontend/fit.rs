@@ -7,6 +7,9 @@
 //! with, per [`LawFamily`] (the laws of [`estimator_core::laws`]):
 //! - Kelvin-Voigt (eq. 1): g = δ, h = δ̇ (in contact): a = κ, b = λ;
 //! - Hunt-Crossley (eq. 3): g = δⁿ, h = δⁿ·δ̇: a = k, b = λ;
+//! - exponential stiffening (the QLV exponential elastic response, eqs. 11/13) with
+//!   Kelvin-Voigt damping: g = (e^{bδ} − 1)/b ([`estimator_core::laws::exponential_law`]),
+//!   h = δ̇ (in contact): a = m (the stiffness at the contact point), b = λ;
 //! - Zener (eq. 2, a linear QLV with one mode): g = δ, h = R_ν\[δ\]: a = κ∞ (relaxed),
 //!   a + b = κ0 (instantaneous);
 //! - power-law QLV (eqs. 10, 14; the Hammerstein form, eqs. 38-39): g = δⁿ, h = R_ν\[δⁿ\]:
@@ -15,8 +18,8 @@
 //! where R_ν\[g\] is the relaxing part of the convolution (9) with one mode e^{−ν·t}: the state
 //! z' = −ν·z + dg/dt, stepped exactly for g linear over each step
 //! ([`estimator_core::laws::relaxing_step`]). The nonlinear parameters are found by a
-//! grid over u_c with golden-section searches over n and ν, then refined around the
-//! grid's best minima (Brent's method, argmin's `BrentOpt`, over u_c and n). For the memoryless
+//! grid over u_c with golden-section searches over n (or b) and ν, then refined around the
+//! grid's best minima (Brent's method, argmin's `BrentOpt`, over u_c and n or b). For the memoryless
 //! laws, points where the fitted law is negative while δ > 0 (the probe retracting faster
 //! than the material recovers: it has left the surface) are taken as free, as the
 //! unilateral contact requires.
@@ -36,6 +39,12 @@ pub enum LawFamily {
     KelvinVoigt,
     /// δⁿ·(k + λ·δ̇) (eq. 3): the force rises from zero as a power law.
     HuntCrossley,
+    /// m·(e^{bδ} − 1)/b + λ·δ̇ (the exponential elastic response of eqs. 11/13, eq. 1's
+    /// damping): linear at the contact point (stiffness m), stiffening as e^{bδ}. A power
+    /// law whose contact point lies far behind the true one mimics it (on one record both
+    /// are smooth stiffening curves), so a record of an exponential material fitted with
+    /// the power law alone gets a contact point behind its free space.
+    Exponential,
     /// Linear elasticity with one relaxation mode (eq. 2).
     Zener,
     /// Power-law elasticity with one relaxation mode (QLV, eqs. 10 and 14; Hammerstein).
@@ -51,6 +60,22 @@ impl LawFamily {
         )
     }
 
+    /// The law has a shape parameter searched with the contact point: the exponent n
+    /// (power laws) or the exponential rate b.
+    pub fn has_shape(self) -> bool {
+        self.has_exponent() || self == LawFamily::Exponential
+    }
+
+    /// Search range of the shape parameter, in the problem's scaled units (b times the
+    /// position range for the exponential law: up to e^10 of stiffening across it).
+    fn shape_range(self) -> (f64, f64) {
+        if self == LawFamily::Exponential {
+            EXPONENTIAL_RATE_RANGE
+        } else {
+            EXPONENT_RANGE
+        }
+    }
+
     /// The law has a relaxation mode.
     pub fn has_relaxation(self) -> bool {
         matches!(self, LawFamily::Zener | LawFamily::PowerLawRelaxation)
@@ -61,6 +86,9 @@ impl LawFamily {
         match self {
             LawFamily::KelvinVoigt => "Kelvin-Voigt (eq. 1)",
             LawFamily::HuntCrossley => "Hunt-Crossley (eq. 3)",
+            LawFamily::Exponential => {
+                "exponential stiffening (eqs. 11/13) with Kelvin-Voigt damping"
+            }
             LawFamily::Zener => "Zener (eq. 2)",
             LawFamily::PowerLawRelaxation => "power-law QLV with one relaxation mode (eqs. 10, 14)",
         }
@@ -88,7 +116,9 @@ pub struct LawFit {
     pub contact_m: f64,
     /// Exponent n (1 without one).
     pub exponent: f64,
-    /// Coefficient a of g: κ \[N/m\], k \[N/mⁿ\], κ∞ or γ1·c0.
+    /// Exponential rate b \[1/m\] of the exponential law (0 for the others).
+    pub rate_per_m: f64,
+    /// Coefficient a of g: κ \[N/m\], k \[N/mⁿ\], m \[N/m\], κ∞ or γ1·c0.
     pub stiffness: f64,
     /// Coefficient b of h: λ (memoryless laws) or the relaxing part (γ1·c1, κ0 − κ∞).
     pub second: f64,
@@ -125,10 +155,10 @@ impl LawFit {
     pub fn predict(&self, depth_m: &[f64], rate_m_per_s: &[f64], time_s: &[f64]) -> Vec<f64> {
         let g: Vec<f64> = depth_m
             .iter()
-            .map(|&d| elastic_shape(self.family, d, self.exponent))
+            .map(|&d| elastic_shape(self.family, d, self.shape()))
             .collect();
         let h = match self.family {
-            LawFamily::KelvinVoigt => depth_m
+            LawFamily::KelvinVoigt | LawFamily::Exponential => depth_m
                 .iter()
                 .zip(rate_m_per_s)
                 .map(|(&d, &v)| if d > 0.0 { v } else { 0.0 })
@@ -144,16 +174,29 @@ impl LawFit {
             .collect()
     }
 
+    /// The shape parameter [`elastic_shape`] takes: n, or b \[1/m\].
+    fn shape(&self) -> f64 {
+        if self.family == LawFamily::Exponential {
+            self.rate_per_m
+        } else {
+            self.exponent
+        }
+    }
+
     /// RMS residual \[N\].
     pub fn rms_n(&self) -> f64 {
         (self.rss / self.points.max(1) as f64).sqrt()
     }
 }
 
-/// g(δ): δ for the linear laws, δⁿ ([`laws::power_law`]) for the others; 0 for δ ≤ 0.
-fn elastic_shape(family: LawFamily, depth: f64, exponent: f64) -> f64 {
+/// g(δ): δ for the linear laws, δⁿ ([`laws::power_law`]) for the power laws,
+/// (e^{bδ} − 1)/b ([`laws::exponential_law`]) for the exponential one, `shape` being n or
+/// b; 0 for δ ≤ 0.
+fn elastic_shape(family: LawFamily, depth: f64, shape: f64) -> f64 {
     if family.has_exponent() {
-        laws::power_law(depth, exponent)
+        laws::power_law(depth, shape)
+    } else if family == LawFamily::Exponential {
+        laws::exponential_law(depth, shape)
     } else {
         depth.max(0.0)
     }
@@ -247,6 +290,10 @@ fn y_sums(f: &[f64], fixed: Option<f64>) -> [f64; 3] {
 
 /// Exponent search range.
 pub const EXPONENT_RANGE: (f64, f64) = (0.3, 4.0);
+
+/// Search range of the exponential law's rate b times the record's position range: from
+/// linear to e^10 of stiffening across the range (tissue indentations reach e^2-e^5).
+pub const EXPONENTIAL_RATE_RANGE: (f64, f64) = (0.0, 10.0);
 
 /// Most points of the coarse grid search over the contact point.
 pub const COARSE_POINTS: usize = 1500;
@@ -380,7 +427,7 @@ impl<'a> Problem<'a> {
         };
         let h = match self.family {
             _ if !self.damping && !self.family.has_relaxation() => vec![0.0; g.len()],
-            LawFamily::KelvinVoigt => g
+            LawFamily::KelvinVoigt | LawFamily::Exponential => g
                 .iter()
                 .zip(&self.v)
                 .map(|(g, v)| if *g > 0.0 { *v } else { 0.0 })
@@ -560,10 +607,10 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// The best exponent (`search` within `exponents`) at `k`'s contact point and rate:
-    /// (n, rss).
+    /// The best exponent or exponential rate (`search` within `exponents`) at `k`'s
+    /// contact point and rate: (n, rss).
     fn best_exponent(&self, k: Knobs, exponents: (f64, f64), search: Search) -> (f64, f64) {
-        if !self.family.has_exponent() {
+        if !self.family.has_shape() {
             return (1.0, self.rss(Knobs { n: 1.0, ..k }));
         }
         let logs = self.depth_logs(k.uc);
@@ -644,7 +691,7 @@ impl<'a> Problem<'a> {
                     let uc = a + k as f64 * step;
                     let (n, rss) = coarse.best_exponent(
                         Knobs { uc, n: 1.0, nu },
-                        EXPONENT_RANGE,
+                        self.family.shape_range(),
                         Search::Golden(GRID_ITERATIONS.0),
                     );
                     (rss, uc, n)
@@ -700,12 +747,8 @@ impl<'a> Problem<'a> {
                 } else {
                     1
                 };
-                let exponents = |n: f64| {
-                    (
-                        (n - 0.5).max(EXPONENT_RANGE.0),
-                        (n + 0.5).min(EXPONENT_RANGE.1),
-                    )
-                };
+                let range = self.family.shape_range();
+                let exponents = |n: f64| ((n - 0.5).max(range.0), (n + 0.5).min(range.1));
                 let exponent = Search::Brent(TOLERANCE.0);
                 // The grid point itself on all points: what the refinement must beat
                 // (Brent's first steps may land where the law is unphysical).
@@ -752,7 +795,7 @@ impl<'a> Problem<'a> {
             l
         };
         let second = match self.family {
-            LawFamily::KelvinVoigt => theta[2] * s / (l * r),
+            LawFamily::KelvinVoigt | LawFamily::Exponential => theta[2] * s / (l * r),
             LawFamily::HuntCrossley => theta[2] * s / (g_unit * l * r),
             LawFamily::Zener | LawFamily::PowerLawRelaxation => theta[2] * s / g_unit,
         };
@@ -760,7 +803,12 @@ impl<'a> Problem<'a> {
             family: self.family,
             offset_n: theta[0] * s,
             contact_m: uc * l,
-            exponent: n,
+            exponent: if self.family.has_exponent() { n } else { 1.0 },
+            rate_per_m: if self.family == LawFamily::Exponential {
+                n / l
+            } else {
+                0.0
+            },
             stiffness: theta[1] * s / g_unit,
             second,
             rate_per_s: if self.family.has_relaxation() {
@@ -910,6 +958,48 @@ mod tests {
                 "{wrong:?} vs {fit:?}"
             );
         }
+    }
+
+    #[test]
+    fn an_exponential_law_keeps_its_contact_point_where_a_power_law_cannot() {
+        // The same approach and sine into F = (m/b)·(e^{bδ} − 1) + λ·δ̇, b·δ_max = 2.5 (a
+        // soft tissue's stiffening), offset 0.3 N, contact at 2 mm.
+        let t: Vec<f64> = (0..8000).map(|i| i as f64 * 1e-3).collect();
+        let depth =
+            |t: f64| -0.5e-3 + 3.0e-3 * (0.5 - 0.5 * (2.0 * std::f64::consts::PI * 0.5 * t).cos());
+        let (m, b, lambda) = (2.0e3, 1.0e3, 30.0);
+        let x: Vec<f64> = t.iter().map(|&t| 2e-3 + depth(t)).collect();
+        let f: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                let d = depth(t);
+                let v = (depth(t + 1e-6) - depth(t - 1e-6)) / 2e-6;
+                let law = if d > 0.0 {
+                    m * laws::exponential_law(d, b) + lambda * v
+                } else {
+                    0.0
+                };
+                0.3 + laws::unilateral(law)
+            })
+            .collect();
+        let s = Series::new(&t, &x, &f);
+        let fit = Problem::new(&s, 1.0, LawFamily::Exponential, OffsetTerm::Free)
+            .fit()
+            .unwrap();
+        assert!((fit.offset_n - 0.3).abs() < 1e-3, "{fit:?}");
+        assert!((fit.contact_m - 2e-3).abs() < 2e-6, "{fit:?}");
+        assert!((fit.rate_per_m / b - 1.0).abs() < 0.01, "{fit:?}");
+        assert!((fit.stiffness / m - 1.0).abs() < 0.01, "{fit:?}");
+        assert!((fit.damping() / lambda - 1.0).abs() < 0.05, "{fit:?}");
+        // The power law reaches for the curve with its contact point behind the surface.
+        let power = Problem::new(&s, 1.0, LawFamily::HuntCrossley, OffsetTerm::Free)
+            .fit()
+            .unwrap();
+        assert!(power.contact_m < 2e-3 - 0.1e-3, "{power:?}");
+        assert!(
+            power.rss > 100.0 * fit.rss.max(1e-12),
+            "{power:?} vs {fit:?}"
+        );
     }
 
     #[test]
