@@ -358,6 +358,32 @@ impl Prepared {
         self.time_s[i] - self.time_s[0]
     }
 
+    /// First fitting sample after the first contact with a surface at depth `surface_m`
+    /// on this log's penetration axis: the first one at or above it after the first
+    /// contact sample, the length if none. [`Prepared::first_contact_end`] is this at the
+    /// prepared contact position (0); a model whose first contact has its own surface
+    /// (a contact point that moved after it) ends that contact where the probe leaves
+    /// that surface.
+    pub fn first_contact_end_at(&self, surface_m: f64) -> usize {
+        let n = self.len();
+        let Some(onset) = self.contact.iter().position(|c| *c) else {
+            return n;
+        };
+        (onset..n)
+            .find(|&b| self.depth_m[b] <= surface_m)
+            .unwrap_or(n)
+    }
+
+    /// Depth \[m\] on this log's penetration axis of the first fitting sample whose force
+    /// exceeds 5 noise deviations of one fitting sample: where the record's first contact
+    /// begins, to within the depth the law needs to reach that force. `None` without one.
+    pub fn first_onset_depth_m(&self) -> Option<f64> {
+        let threshold = 5.0 * self.noise_n;
+        (0..self.len())
+            .find(|&b| self.force_n[b] > threshold)
+            .map(|b| self.depth_m[b])
+    }
+
     /// Index of the first fitting sample: 0.25 s (at least 5 samples) before the first
     /// contact, so that the onset and some free space (for the tare) are inside the fit
     /// but not a long approach.

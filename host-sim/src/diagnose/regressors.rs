@@ -265,12 +265,28 @@ pub(super) fn design(
         };
         (elastic, damping)
     };
+    // The first contact ends where the probe is back above both its own surface (the
+    // refined point less the shift) and the prepared contact position. The prepared
+    // position may be the later contacts' surface (the front end fits one point to the
+    // whole record, and most contacts are later ones): where that lies deeper than the
+    // first surface, the first contact ended, measured from it, while the first surface
+    // still pushed (a hidden-effect log, a shift of +0.39 mm, ended at 3.5× the noise
+    // floor on that one spike; now 1.01×). Where it lies shallower, the first surface's
+    // own end is the generator's switch too, but ending there lost a shift of −0.37 mm
+    // (the knob's grid settled at 0: 5.9× the floor); the later end costs a few blocks of
+    // the retract and finds it (1.10×).
+    let first_contact_end = if has(Effect::ContactPointOffset) {
+        data.first_contact_end
+            .max(data.first_contact_end_at(nl.contact_m - nl.contact_shift_m))
+    } else {
+        data.first_contact_end
+    };
     for i in 0..n {
         // δ from the refined first-impact point; later contacts from the shifted one.
         // (The knob moves the first contact's point, so that the shared refinement
         // follows the later contacts, which hold most of the record.)
         let mut reference = nl.contact_m;
-        if has(Effect::ContactPointOffset) && start + i < data.first_contact_end {
+        if has(Effect::ContactPointOffset) && start + i < first_contact_end {
             reference -= nl.contact_shift_m;
         }
         let d = series(0, i) - reference;
