@@ -2,6 +2,7 @@
 //! Prints, per case, the effects found for each seed, and a confusion table.
 //!
 //! `cargo run --release -p host-sim --example diagnose_sweep -- FIRST_SEED COUNT [CASE]`
+//! (`ARRAYS=1`: the generator's arrays prepared directly, without the front end)
 
 use std::time::Instant;
 
@@ -14,6 +15,13 @@ fn main() {
     let first: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1);
     let count: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
     let only = args.get(3).cloned();
+    // Each log is written as a CSV and diagnosed as `host-sim diagnose` diagnoses a file
+    // (the front end finds the axis, offset, contact point and noise), as the sweep test
+    // does; ARRAYS=1 prepares the generator's arrays with the impact detector instead.
+    let user_path = std::env::var("ARRAYS").is_ok_and(|v| v == "1");
+    let user_path = !user_path;
+    let dir = std::env::temp_dir().join(format!("diagnose_sweep-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary folder");
     let mut cases: Vec<Vec<Effect>> = Effect::ALL.iter().map(|e| vec![*e]).collect();
     cases.push(vec![Effect::PowerLawStiffness, Effect::Relaxation]);
     cases.push(vec![Effect::DepthDependentDamping, Effect::ForceOffset]);
@@ -41,20 +49,41 @@ fn main() {
         let mut time = 0.0f64;
         for seed in first..first + count {
             let g = generator::generate(&case, seed);
-            let prepared = match data::prepare(
-                &g.log.time_s,
-                &g.log.position_m,
-                &g.log.force_n,
-                ImpactConfig::default(),
-            ) {
-                Ok(p) => p,
-                Err(e) => {
-                    lines.push(format!("  seed {seed}: {e}"));
-                    continue;
-                }
-            };
             let t0 = Instant::now();
-            let d = diagnose::diagnose(&prepared, &Options::default()).expect("fit");
+            let (prepared, d) = if user_path {
+                let path = dir.join(format!("{name}-{seed}.csv"));
+                host_sim::report::write_simulated_log(&path, &g.log).expect("write the log");
+                let run = host_sim::files::diagnose_file(
+                    &path,
+                    "csv",
+                    &Options::default(),
+                    &host_sim::setup::Overrides::default(),
+                    None,
+                );
+                let _ = std::fs::remove_file(&path);
+                match run {
+                    Ok(run) => (run.prepared, run.diagnosis),
+                    Err(e) => {
+                        lines.push(format!("  seed {seed}: {e:#}"));
+                        continue;
+                    }
+                }
+            } else {
+                let prepared = match data::prepare(
+                    &g.log.time_s,
+                    &g.log.position_m,
+                    &g.log.force_n,
+                    ImpactConfig::default(),
+                ) {
+                    Ok(p) => p,
+                    Err(e) => {
+                        lines.push(format!("  seed {seed}: {e}"));
+                        continue;
+                    }
+                };
+                let d = diagnose::diagnose(&prepared, &Options::default()).expect("fit");
+                (prepared, d)
+            };
             time = time.max(t0.elapsed().as_secs_f64());
             let found = d.effects_added();
             let floor = generator::noise_floor_percent(&g, &prepared);
