@@ -358,13 +358,13 @@ impl Prepared {
         self.time_s[i] - self.time_s[0]
     }
 
-    /// First fitting sample after the first contact with a surface at depth `surface_m`
-    /// on this log's penetration axis: the first one at or above it after the first
-    /// contact sample, the length if none. [`Prepared::first_contact_end`] is this at the
-    /// prepared contact position (0); a model whose first contact has its own surface
-    /// (a contact point that moved after it) ends that contact where the probe leaves
-    /// that surface.
-    pub fn first_contact_end_at(&self, surface_m: f64) -> usize {
+    /// The first fitting sample, from the first one flagged in contact on, whose depth is
+    /// at or above `surface_m` (this log's penetration axis): the length if none.
+    /// [`Prepared::first_contact_end`] is this at the prepared contact position (0).
+    /// For a surface shallower than the flagged onset it is where the probe leaves that
+    /// surface; for a deeper one it is the flagged onset itself (the contact-point
+    /// offset's caller takes the later of this and `first_contact_end`).
+    pub(crate) fn first_contact_end_at(&self, surface_m: f64) -> usize {
         let n = self.len();
         let Some(onset) = self.contact.iter().position(|c| *c) else {
             return n;

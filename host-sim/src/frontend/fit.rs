@@ -292,7 +292,10 @@ fn y_sums(f: &[f64], fixed: Option<f64>) -> [f64; 3] {
 pub const EXPONENT_RANGE: (f64, f64) = (0.3, 4.0);
 
 /// Search range of the exponential law's rate b times the record's position range: from
-/// linear to e^10 of stiffening across the range (tissue indentations reach e^2-e^5).
+/// linear to e^10 of stiffening across that range. The range includes the approach:
+/// the generators' records (approach ≈ a third of the indentation) need b·range up to
+/// ≈ 5; a record whose travel is several times its indentation needs more for a
+/// strongly stiffening tissue (b·δ of 3-5), and its b would sit at this bound.
 pub const EXPONENTIAL_RATE_RANGE: (f64, f64) = (0.0, 10.0);
 
 /// Most points of the coarse grid search over the contact point.
@@ -302,7 +305,8 @@ pub const COARSE_POINTS: usize = 1500;
 pub const CONTACT_GRID: usize = 256;
 
 /// Golden-section iterations of the grid's searches over the exponent (over
-/// [`EXPONENT_RANGE`]: to ≈ 0.01, enough to rank the cells) and ln ν.
+/// [`EXPONENT_RANGE`]: to ≈ 0.01, enough to rank the cells; over
+/// [`EXPONENTIAL_RATE_RANGE`] to ≈ 0.03) and ln ν.
 pub const GRID_ITERATIONS: (usize, usize) = (12, 20);
 
 /// Tolerances of the refinement's [`brent`] searches on all points: exponent, contact point

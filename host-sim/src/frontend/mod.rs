@@ -343,7 +343,7 @@ fn analyse_oriented(
         return Err(FrontEndError::FitFailed);
     };
     let axis = match (options.position_sign, fits.get(1)) {
-        _ if oriented.is_some() => oriented.map_or(AxisSource::Given, |(_, a)| a),
+        _ if let Some((_, decided)) = oriented => decided,
         (Some(_), _) => AxisSource::Given,
         (None, None) => AxisSource::OnlyOrientation,
         (None, Some((_, other))) => AxisSource::Detected {
@@ -421,7 +421,13 @@ fn analyse_oriented(
         notes: Vec::new(),
         warnings: Vec::new(),
     };
-    describe(&mut front, family, &offset_verdict, options);
+    describe(
+        &mut front,
+        family,
+        &offset_verdict,
+        options,
+        oriented.is_some(),
+    );
     if let Some((loading_rms, other_rms)) = loading_only {
         front.notes.push(format!(
             "the law fits the loading curve (residual {loading_rms:.3e} N) but not the rest of the contact \
@@ -760,30 +766,38 @@ impl FreeSpace {
     }
 }
 
+/// `axis_from_other_laws`: the orientation was decided by the Kelvin-Voigt and
+/// Hunt-Crossley fits ([`analyse_on_axis`]), not by this law's.
 fn describe(
     front: &mut FrontEnd,
     family: LawFamily,
     offset_verdict: &Result<OffsetSource, String>,
     options: &Options,
+    axis_from_other_laws: bool,
 ) {
     let direction = if front.position_sign > 0.0 {
         "increases"
     } else {
         "decreases"
     };
+    let detected = if axis_from_other_laws {
+        "detected by the Kelvin-Voigt and Hunt-Crossley fits"
+    } else {
+        "detected"
+    };
     front.notes.push(match front.axis {
         AxisSource::Given => format!("position axis: the position {direction} into the material (given)"),
         AxisSource::OnlyOrientation => format!(
-            "position axis: the position {direction} into the material (detected: no contact law with a \
+            "position axis: the position {direction} into the material ({detected}: no contact law with a \
              positive stiffness fits the other way; --position-sign overrides)"
         ),
         AxisSource::Detected { rss_ratio } => format!(
-            "position axis: the position {direction} into the material (detected: the contact law fits \
+            "position axis: the position {direction} into the material ({detected}: the contact law fits \
              {rss_ratio:.3e}× better this way; --position-sign overrides)"
         ),
     });
     if let AxisSource::Detected { rss_ratio } = front.axis {
-        if rss_ratio < 2.0 {
+        if rss_ratio < DECISIVE_AXIS_RSS_RATIO {
             front.warnings.push(format!(
                 "the axis orientation is uncertain (the two orientations fit within a factor {rss_ratio:.2}); \
                  pass --position-sign"
