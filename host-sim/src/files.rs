@@ -639,13 +639,15 @@ pub fn prepare_file(
     // shifted power law is the nearest stiffening curve), and its later contacts were
     // never seen. The exponential law is fitted on the orientation the other two
     // decided, when they decided it.
-    let analyse = |family| {
-        frontend::analyse(
+    // `oriented`: the orientation (sign, how decided) another law's fit decided.
+    let analyse = |family, oriented| {
+        frontend::analyse_oriented(
             &native.time_s,
             &native.position_m,
             &native.force_n,
             family,
             &overrides.front_end,
+            oriented,
         )
         .ok()
     };
@@ -654,7 +656,7 @@ pub fn prepare_file(
         frontend::fit::LawFamily::HuntCrossley,
     ]
     .into_par_iter()
-    .filter_map(analyse)
+    .filter_map(|family| analyse(family, None))
     .collect();
     let best = fronts
         .iter()
@@ -681,22 +683,10 @@ pub fn prepare_file(
     let oriented = best
         .filter(|f| f.axis.is_decisive())
         .map(|f| (f.position_sign, f.axis));
-    let exponential = match oriented {
-        _ if at_noise => None,
-        Some((sign, axis)) => frontend::analyse_on_axis(
-            &native.time_s,
-            &native.position_m,
-            &native.force_n,
-            frontend::fit::LawFamily::Exponential,
-            &overrides.front_end,
-            sign,
-            axis,
-        )
-        .ok(),
-        None => analyse(frontend::fit::LawFamily::Exponential),
-    };
-    let exponential =
-        exponential.filter(|e| best.is_none_or(|b| frontend::exponential_law_preferred(b, e)));
+    let exponential = (!at_noise)
+        .then(|| analyse(frontend::fit::LawFamily::Exponential, oriented))
+        .flatten()
+        .filter(|e| best.is_none_or(|b| frontend::exponential_law_preferred(b, e)));
     fronts.extend(exponential);
     let front = match fronts
         .into_iter()

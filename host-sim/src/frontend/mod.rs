@@ -224,33 +224,6 @@ pub fn analyse(
     analyse_oriented(time_s, position_m, force_n, family, options, None)
 }
 
-/// [`analyse`] on the axis orientation that another law family's analysis of the same
-/// record decided: `position_sign` and how it was decided (`axis`, reported as is). The
-/// other orientation is not fitted: where one family's fit already tells the
-/// orientations apart, a further family only needs the contact law on the right one
-/// (the wrong one costs as much or more: its laws misfit, and refit their free points).
-///
-/// # Errors
-/// As [`analyse`].
-pub fn analyse_on_axis(
-    time_s: &[f64],
-    position_m: &[f64],
-    force_n: &[f64],
-    family: LawFamily,
-    options: &Options,
-    position_sign: f64,
-    axis: AxisSource,
-) -> Result<FrontEnd, FrontEndError> {
-    analyse_oriented(
-        time_s,
-        position_m,
-        force_n,
-        family,
-        options,
-        Some((position_sign.signum(), axis)),
-    )
-}
-
 /// How many times smaller the exponential law's RMS residual must be than the better
 /// of the Kelvin-Voigt and Hunt-Crossley laws' for `diagnose` to take its offset and
 /// contact point ([`exponential_law_preferred`]). The power law is the paper's (eq. 3)
@@ -298,8 +271,16 @@ impl AxisSource {
     }
 }
 
-/// [`analyse`], on the orientation `oriented` names if it does.
-fn analyse_oriented(
+/// [`analyse`], on the axis orientation `oriented` names if it does: the sign that
+/// another law family's analysis of the same record decided and how it decided it
+/// (reported as is). The other orientation is not fitted: where one family's fit
+/// already tells the orientations apart, a further family only needs the contact law on
+/// the right one (the wrong one costs as much or more: its laws misfit, and refit their
+/// free points). `None`: as [`analyse`].
+///
+/// # Errors
+/// As [`analyse`].
+pub fn analyse_oriented(
     time_s: &[f64],
     position_m: &[f64],
     force_n: &[f64],
@@ -767,7 +748,7 @@ impl FreeSpace {
 }
 
 /// `axis_from_other_laws`: the orientation was decided by the Kelvin-Voigt and
-/// Hunt-Crossley fits ([`analyse_on_axis`]), not by this law's.
+/// Hunt-Crossley fits ([`analyse_oriented`]), not by this law's.
 fn describe(
     front: &mut FrontEnd,
     family: LawFamily,
