@@ -686,6 +686,18 @@ fn fit_on(
         // Each knob trades off against the contact position (a stiffening law against a
         // later contact, a delay against an earlier one): the contact is re-fitted from
         // the current model's and from the detector's, and the better kept.
+        // The second start: the detector's point, or, for a plastic set (whose
+        // contact point is the first impact's, the shallowest of the record), the
+        // first onset. The front end fits one point to the whole record, deeper
+        // than the first impact where a set moved the later contacts; from there
+        // the set's search stalled short of the first impact (a hidden-effect log:
+        // NRMSE 0.22 % against a floor of 0.13 %, and a mass of 0 then accepted
+        // for the minimum its re-fit found).
+        let second = if k == Knob::PlasticFraction {
+            data.first_onset_depth_m().unwrap_or(0.0)
+        } else {
+            0.0
+        };
         let at = |u: f64, from: &Nonlinear, both: bool| {
             let mut trial = *from;
             trial.set(k, problem.value_at_unit(k, u));
@@ -697,18 +709,6 @@ fn fit_on(
                 &[Knob::ContactPosition],
                 effort.contact_iterations,
             );
-            // The second start: the detector's point, or, for a plastic set (whose
-            // contact point is the first impact's, the shallowest of the record), the
-            // first onset. The front end fits one point to the whole record, deeper
-            // than the first impact where a set moved the later contacts; from there
-            // the set's search stalled short of the first impact (a hidden-effect log:
-            // NRMSE 0.22 % against a floor of 0.13 %, and a mass of 0 then accepted
-            // for the minimum its re-fit found).
-            let second = if k == Knob::PlasticFraction {
-                data.first_onset_depth_m().unwrap_or(0.0)
-            } else {
-                0.0
-            };
             if trial.contact_m == second || !both {
                 return (r, t);
             }
