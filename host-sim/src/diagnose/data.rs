@@ -82,6 +82,10 @@ pub struct Prepared {
     /// Sign that turned the file's position into the penetration axis the log is on
     /// (+1 unless the caller set it from the front end's axis).
     pub position_sign: f64,
+    /// Fitting samples per block of the interleaved cross-validation folds (block `b`
+    /// held out in fold `b mod FOLDS`), or `None` for contiguous fifths of the fit window:
+    /// set by the workflow ([`super::scoring::interleaved_block`]), `None` as prepared.
+    pub cv_block: Option<usize>,
 }
 
 /// Why a log cannot be diagnosed.
@@ -297,6 +301,7 @@ fn assemble(
         .find(|b| depth[*b] <= 0.0)
         .unwrap_or(blocks);
     Prepared {
+        cv_block: None,
         dt,
         time_s: (0..blocks).map(|b| avg(time_s, b)).collect(),
         depth_m: depth,

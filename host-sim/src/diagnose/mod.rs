@@ -118,6 +118,10 @@ pub struct Options {
     pub min_cv_improvement: f64,
     /// Held-out error must improve on at least this many of the folds.
     pub min_folds_better: usize,
+    /// Interleave the folds where the probe moves in fewer contiguous fifths than
+    /// `min_folds_better` ([`scoring::interleaved_block`]); `false` keeps contiguous
+    /// fifths on every record.
+    pub interleave_folds: bool,
 }
 
 impl Default for Options {
@@ -128,6 +132,7 @@ impl Default for Options {
             min_bic_drop: 10.0,
             min_cv_improvement: 0.01,
             min_folds_better: 3,
+            interleave_folds: true,
         }
     }
 }
@@ -234,6 +239,9 @@ pub struct Diagnosis {
     /// N_eff / N of the sensor noise the BIC counts ([`noise_sample_fraction`]); `None`
     /// when the record has too little free space and each fit's residual decides.
     pub noise_sample_fraction: Option<f64>,
+    /// Block length \[fitting samples\] of the interleaved cross-validation folds, or
+    /// `None` for contiguous fifths ([`scoring::interleaved_block`]).
+    pub cv_block: Option<usize>,
     /// [`rate_spread_at_depth`] of the record.
     pub rate_spread: f64,
     /// [`speed_spread_at_depth`] of the record.
@@ -297,6 +305,18 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let baseline = baseline_effects(options.baseline)?;
     let duration_s = data.dt * (data.len() - data.fit_start()) as f64;
     let noise_fraction = noise_sample_fraction(data);
+    // Cross-validation folds the record's motion can fill (see `interleaved_block`).
+    let interleaved = Prepared {
+        cv_block: scoring::interleaved_block(
+            data,
+            data.fit_start(),
+            noise_fraction,
+            options.min_folds_better,
+        )
+        .filter(|_| options.interleave_folds),
+        ..data.clone()
+    };
+    let data = &interleaved;
     // Rate effects on a record that passes each depth at one speed are elastic laws in
     // disguise: not tried, listed, and the baseline's own damping held at 0 (unless the
     // record shows it as the step at a contact onset, below).
@@ -695,6 +715,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
         removed,
         final_fit: current,
         noise_sample_fraction: noise_fraction,
+        cv_block: data.cv_block,
         rate_spread: setting.rate_spread,
         speed_spread: setting.speed_spread,
         unidentifiable: unidentifiable.clone(),

@@ -122,6 +122,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "vaf_percent_final": d.final_fit.vaf_percent,
         "elastic_force_table": elastic_force_table(d, data),
         "noise_sample_fraction": d.noise_sample_fraction,
+        "cv_interleaved_block_samples": d.cv_block,
         "rate_spread_at_depth": d.rate_spread,
         "speed_spread_at_depth": d.speed_spread,
         "linear_damping_held": d.damping_held,
@@ -352,6 +353,17 @@ pub fn markdown(
         options.min_folds_better,
         options.max_steps,
         super::PAIRED
+    );
+    let _ = writeln!(
+        out,
+        "{}\n",
+        match d.cv_block {
+            None => "The folds are contiguous fifths of the fit window.".to_string(),
+            Some(b) => format!(
+                "The probe moves in fewer than {} of the fit window's fifths (a hold, or a single ramp), where contiguous folds cannot show a rate effect on enough folds: the folds interleave, blocks of {} fitting samples (twice the noise's correlation time) held out in turn, every fifth block one fold.",
+                options.min_folds_better, b
+            ),
+        }
     );
     let _ = writeln!(
         out,

@@ -788,7 +788,7 @@ fn fit_on(
     let vaf = 100.0 * (1.0 - rss / var.max(1e-300));
     let k = design.columns.len() + knobs_of(effects).len();
     let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + k as f64 * (n as f64).ln();
-    let cv = cross_validate(&design, y);
+    let cv = cross_validate(&design, y, data.cv_block);
     // Only a residual at the noise floor measures the noise's colour; a larger one is
     // the misfit's, which the held-out error judges (counted by its own colour, a model
     // one effect short leaves too few samples for any effect to pass).
