@@ -652,17 +652,21 @@ pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<Str
     if models.is_empty() {
         models.push(("baseline".into(), &d.final_localisation));
     }
+    // The baseline and the final model in the residual panel's colours (red, blue), the
+    // models between them in the palette's others.
+    let last = models.len() - 1;
     for (i, (name, l)) in models.iter().enumerate() {
         let points: Vec<(f64, f64)> = PHASE_ORDER
             .iter()
             .enumerate()
             .filter_map(|(k, p)| l.phase_rms_n.get(p.name()).map(|(rms, _)| (k as f64, *rms)))
             .collect();
-        per_phase.push(Series::solid(
-            name.clone(),
-            points,
-            PALETTE[i % PALETTE.len()],
-        ));
+        let color = match i {
+            0 => PALETTE[1],
+            _ if i == last => PALETTE[0],
+            _ => PALETTE[2 + (i - 1) % (PALETTE.len() - 2)],
+        };
+        per_phase.push(Series::solid(name.clone(), points, color));
     }
     let phase_chart = Chart {
         title: format!(
