@@ -698,12 +698,10 @@ impl Estimator for SingleStageHuntCrossleyEstimator {
 
     fn standard_errors(&self) -> HuntCrossleyParameters {
         let se = self.rls.standard_errors();
-        let th = self.rls.theta();
         let (k, lambda, n) = self.internal();
         let se_k = k * se[0];
         let se_lambda =
             libm::sqrtf((k * se[1]) * (k * se[1]) + (lambda * se[0]) * (lambda * se[0]));
-        let _ = th;
         let mut p = hunt_crossley_to_si(&self.config.scaling, self.ln_length, se_k, se_lambda, n);
         p.n = se[2];
         p
