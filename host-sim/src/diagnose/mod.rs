@@ -15,8 +15,10 @@
 //!   ([`noise_sample_fraction`]; every sample counts when the record has no free space
 //!   to measure it on): real noise is coloured, and N would make any slow wiggle of it
 //!   "significant";
-//! - the held-out error improves on at least 3 of the 5 contiguous time blocks;
-//! - the mean held-out error improves by at least 1 %.
+//! - the held-out error improves on at least 3 of the 5 contiguous time blocks (on a
+//!   record whose probe moves in fewer than 3 of them, on 3 of 5 interleaved folds:
+//!   [`scoring::interleaved_block`]);
+//! - the mean held-out error improves by at least 1 % on those folds.
 //!
 //! **Identifiability before significance.** Two significant candidates whose fits the
 //! record cannot tell apart (their BIC, on the same effective samples, within the
@@ -118,9 +120,9 @@ pub struct Options {
     pub min_cv_improvement: f64,
     /// Held-out error must improve on at least this many of the folds.
     pub min_folds_better: usize,
-    /// Interleave the folds where the probe moves in fewer contiguous fifths than
-    /// `min_folds_better` ([`scoring::interleaved_block`]); `false` keeps contiguous
-    /// fifths on every record.
+    /// Interleave the folds where the probe moves in fewer than
+    /// [`scoring::MIN_MOVING_FOLDS`] contiguous fifths ([`scoring::interleaved_block`]);
+    /// `false` keeps contiguous fifths on every record.
     pub interleave_folds: bool,
 }
 
@@ -307,13 +309,8 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let noise_fraction = noise_sample_fraction(data);
     // Cross-validation folds the record's motion can fill (see `interleaved_block`).
     let interleaved = Prepared {
-        cv_block: scoring::interleaved_block(
-            data,
-            data.fit_start(),
-            noise_fraction,
-            options.min_folds_better,
-        )
-        .filter(|_| options.interleave_folds),
+        cv_block: scoring::interleaved_block(data, data.fit_start(), noise_fraction)
+            .filter(|_| options.interleave_folds),
         ..data.clone()
     };
     let data = &interleaved;

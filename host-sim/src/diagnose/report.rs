@@ -360,8 +360,8 @@ pub fn markdown(
         match d.cv_block {
             None => "The folds are contiguous fifths of the fit window.".to_string(),
             Some(b) => format!(
-                "The probe moves in fewer than {} of the fit window's fifths (a hold, or a single ramp), where contiguous folds cannot show a rate effect on enough folds: the folds interleave, blocks of {} fitting samples (twice the noise's correlation time) held out in turn, every fifth block one fold.",
-                options.min_folds_better, b
+                "The probe moves in fewer than {} of the fit window's fifths (a hold between brief ramps), where contiguous folds cannot show an effect of the motion on enough folds: the folds interleave, blocks of {} fitting samples (2·N/N_eff of the sensor noise, at least 4) held out in turn, every fifth block one fold. A short held-out block of a slow function of time (relaxation, a drift) is then predicted almost in-sample: the BIC on effective samples is the guard against those.",
+                super::scoring::MIN_MOVING_FOLDS, b
             ),
         }
     );
@@ -651,6 +651,9 @@ pub fn write_plots(dir: &Path, data: &Prepared, d: &Diagnosis) -> Result<Vec<Str
     }
     if models.is_empty() {
         models.push(("baseline".into(), &d.final_localisation));
+    } else if !d.removed.is_empty() {
+        // The backward check took effects out again: the last step is not the final model.
+        models.push(("final".into(), &d.final_localisation));
     }
     // The baseline and the final model in the residual panel's colours (red, blue), the
     // models between them in the palette's others.
