@@ -144,6 +144,15 @@ fn diagnose_generated(
     diagnose_generated_with(dir, structure, material, seed, &Options::default())
 }
 
+/// The workflow's default options with contiguous folds on every record (as before
+/// `scoring::interleaved_block`).
+fn contiguous_folds() -> Options {
+    Options {
+        interleave_folds: false,
+        ..Options::default()
+    }
+}
+
 /// [`diagnose_generated`] with the workflow's `options`.
 fn diagnose_generated_with(
     dir: &std::path::Path,
@@ -663,16 +672,12 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
 #[test]
 fn two_effects_that_pass_only_together_are_named_together() {
     let dir = tempfile::tempdir().unwrap();
-    let contiguous = Options {
-        interleave_folds: false,
-        ..Options::default()
-    };
     let (r, d) = diagnose_generated_with(
         dir.path(),
         Structure::RampHold,
         MaterialKind::HuntCrossley,
         3000,
-        &contiguous,
+        &contiguous_folds(),
     );
     assert_eq!(d.cv_block, None);
     let mut added = d.effects_added();
@@ -733,16 +738,12 @@ fn a_ramp_and_hold_is_judged_on_interleaved_folds() {
         "n = {n}, truth {}",
         r.truth.n
     );
-    let contiguous = Options {
-        interleave_folds: false,
-        ..Options::default()
-    };
     let (_, before) = diagnose_generated_with(
         dir.path(),
         Structure::RampHold,
         MaterialKind::HuntCrossley,
         3002,
-        &contiguous,
+        &contiguous_folds(),
     );
     assert!(
         before.effects_added().is_empty(),

@@ -11,6 +11,11 @@ use super::{Candidate, Options};
 /// Number of blocked cross-validation folds.
 pub const FOLDS: usize = 5;
 
+/// The samples of contiguous fold `fold` of `n`: the fifth \[fold·n/5, (fold+1)·n/5).
+fn contiguous_fold(fold: usize, n: usize) -> std::ops::Range<usize> {
+    fold * n / FOLDS..(fold + 1) * n / FOLDS
+}
+
 /// Blocked cross-validation with the nonlinear parameters and contact gates fixed: the
 /// linear coefficients are refitted without each fold and tested on it. A fold is a
 /// contiguous fifth of the fit window, or, with `block`, every fifth block of `block`
@@ -22,7 +27,7 @@ pub(super) fn cross_validate(design: &Design, y: &[f64], block: Option<usize>) -
         .map(|f| {
             let held_out = |i: usize| match block {
                 Some(b) => (i / b.max(1)) % FOLDS == f,
-                None => (f * n / FOLDS..(f + 1) * n / FOLDS).contains(&i),
+                None => contiguous_fold(f, n).contains(&i),
             };
             let train: Vec<bool> = (0..n).map(|i| !held_out(i)).collect();
             let held: Vec<usize> = (0..n).filter(|&i| held_out(i)).collect();
@@ -96,9 +101,9 @@ pub fn interleaved_block(
     // Σδ̇² in contact over each contiguous fold of `cross_validate`.
     let energy: Vec<f64> = (0..FOLDS)
         .map(|fold| {
-            (start + fold * n / FOLDS..start + (fold + 1) * n / FOLDS)
-                .filter(|&i| data.contact[i])
-                .map(|i| data.rate_m_per_s[i].powi(2))
+            contiguous_fold(fold, n)
+                .filter(|&i| data.contact[start + i])
+                .map(|i| data.rate_m_per_s[start + i].powi(2))
                 .sum()
         })
         .collect();
