@@ -2,7 +2,7 @@
 //! firmware can select a model from a setting without heap or trait objects.
 
 use crate::error::ConfigError;
-use crate::estimator::{ContactSample, Estimator, SampleUpdate, Scaling};
+use crate::estimator::{ContactSample, Estimate, Estimator, SampleUpdate, Scaling};
 use crate::hammerstein::{Hammerstein1, Hammerstein2, HammersteinConfig};
 use crate::hunt_crossley::{
     HuntCrossleyConfig, HuntCrossleyEstimator, HuntCrossleyParameters,
@@ -346,6 +346,17 @@ fn convert<P>(p: P, f: impl FnOnce(&P) -> AnyParameters) -> AnyParameters {
     f(&p)
 }
 
+fn convert_estimate<P>(
+    e: Estimate<P>,
+    f: impl FnOnce(&P) -> AnyParameters,
+) -> Estimate<AnyParameters> {
+    Estimate {
+        parameters: f(&e.parameters),
+        predicted_force_n: e.predicted_force_n,
+        status: e.status,
+    }
+}
+
 impl Estimator for AnyEstimator {
     type Parameters = AnyParameters;
 
@@ -358,6 +369,12 @@ impl Estimator for AnyEstimator {
             AnyEstimator::Hammerstein1(e) => e.update(sample),
             AnyEstimator::Hammerstein2(e) => e.update(sample),
         }
+    }
+
+    /// One dispatch for the update and the conversion (the default method would dispatch
+    /// twice); the results are those of `update` then `parameters`.
+    fn step(&mut self, sample: &ContactSample) -> Estimate<AnyParameters> {
+        dispatch!(self, e => e.step(sample), convert_estimate)
     }
 
     fn parameters(&self) -> AnyParameters {
