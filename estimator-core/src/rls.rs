@@ -24,7 +24,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::error::{check, positive, ConfigError};
-use crate::fmath::min_finite;
+use crate::fmath::{max_finite, min_finite};
 use crate::Status;
 
 /// Forgetting-factor policy for an RLS estimator.
@@ -389,7 +389,9 @@ impl<const N: usize> Rls<N> {
                 status: Status::NON_FINITE_INPUT,
             };
         }
-        let beta = min_finite(beta, 1.0 - self.startup_gap).clamp(f32::MIN_POSITIVE, 1.0);
+        // 1 − gap ∈ (0, 1] (the gap starts in [0, 1) and decays), so only the lower
+        // bound needs a test; a NaN β gives 1 − gap.
+        let beta = max_finite(min_finite(beta, 1.0 - self.startup_gap), f32::MIN_POSITIVE);
         self.startup_gap *= self.startup_decay;
         let mut status = Status::empty();
         let prior_error = y - phi.dot(&self.theta);
@@ -446,18 +448,18 @@ impl<const N: usize> Rls<N> {
             }
         }
 
+        // Stored before the test: a failing P is replaced by c·I, never kept.
+        self.p = p;
         if !is_positive_definite(&p) {
             self.reset_covariance();
             status |= Status::COVARIANCE_RESET;
-        } else {
-            self.p = p;
         }
         if all_finite(new_theta.as_slice()) {
             self.theta = new_theta;
             let post = y - phi.dot(&self.theta);
             let r = weight * post * post;
-            // r ≥ 0 or NaN: finite exactly when below infinity.
-            if r < f32::INFINITY {
+            // r ≥ 0 or NaN: finite exactly when at most f32::MAX (one unordered test).
+            if r <= f32::MAX {
                 self.residual_variance += RESIDUAL_VARIANCE_RATE * (r - self.residual_variance);
             }
         } else {
@@ -484,6 +486,12 @@ fn all_finite(values: &[f32]) -> bool {
 /// as lost). A non-finite entry fails a pivot test (an infinite or NaN pivot, or one
 /// compared with an infinite diagonal), so finiteness needs no test of its own.
 /// O(N³/6) flops, no square roots; N ≤ 4 here.
+///
+/// The test of pivot j, d_j > 10⁻⁶·P_jj, is d_j > 10⁻⁶·|P_jj| and d_j > 0 in one
+/// comparison: d_j = P_jj − Σ l²·d_k ≤ P_jj once the earlier pivots passed, so a negative
+/// P_jj fails either way, and for P_jj ≥ 0 the first implies the second. Written as a
+/// negated `>` so that a NaN pivot fails.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn is_positive_definite<const N: usize>(p: &SMatrix<f32, N, N>) -> bool {
     let mut l = SMatrix::<f32, N, N>::zeros();
     let mut d = [0.0f32; N];
@@ -492,7 +500,7 @@ fn is_positive_definite<const N: usize>(p: &SMatrix<f32, N, N>) -> bool {
         for k in 0..j {
             dj -= l[(j, k)] * l[(j, k)] * d[k];
         }
-        if !(dj > 1.0e-6 * p[(j, j)].abs() && dj > 0.0) {
+        if !(dj > 1.0e-6 * p[(j, j)]) {
             return false;
         }
         d[j] = dj;
