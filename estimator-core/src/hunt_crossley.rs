@@ -307,17 +307,15 @@ impl HuntCrossleyEstimator {
     }
 
     /// Holds the current estimate unless its SI values do not fit in f32 (`NONPHYSICAL`).
-    /// Within [`certainly_finite_bounds`] they fit without converting. Inline in every
-    /// update (the 1 kHz path); the conversion beyond the bounds is a call of its own.
+    /// Within [`certainly_finite_bounds`] they fit without converting (n̂ is always in the
+    /// guards' range: it starts there, `start_from` clamps it, every Γ2 update projects it).
+    /// Inline in every update (the 1 kHz path); the conversion beyond the bounds is a call
+    /// of its own.
     #[inline(always)]
     fn refresh(&mut self) -> Status {
         let th = self.gamma1.theta();
         let n = self.exponent();
-        let g = &self.config.guards;
-        let certain = th[0].abs() <= self.finite_bounds.0
-            && th[1].abs() <= self.finite_bounds.1
-            && n >= g.min_exponent
-            && n <= g.max_exponent;
+        let certain = th[0].abs() <= self.finite_bounds.0 && th[1].abs() <= self.finite_bounds.1;
         if certain || self.converts_to_finite_si(th[0], th[1], n) {
             self.held_internal = [th[0], th[1], n];
             Status::empty()
@@ -438,8 +436,15 @@ impl Estimator for HuntCrossleyEstimator {
         p
     }
 
+    /// n outside the guards' range starts at the nearer bound (the projection every Γ2
+    /// update applies), k and λ converted with it.
     fn start_from(&mut self, p: &HuntCrossleyParameters) {
-        let Some((k, lambda, n)) = hunt_crossley_to_internal(&self.config.scaling, p) else {
+        let g = &self.config.guards;
+        let p = HuntCrossleyParameters {
+            n: p.n.clamp(g.min_exponent, g.max_exponent),
+            ..*p
+        };
+        let Some((k, lambda, n)) = hunt_crossley_to_internal(&self.config.scaling, &p) else {
             return;
         };
         self.gamma1.restart_from(Vector2::new(k, lambda));
