@@ -766,4 +766,28 @@ mod tests {
             (0.0, 0.0)
         );
     }
+
+    /// n̂ never leaves the guards' range, a start outside it included: `refresh` relies on
+    /// it (it no longer tests n̂). k and λ are kept in SI, converted with the clamped n.
+    #[test]
+    fn a_start_outside_the_exponent_range_starts_at_its_bound() {
+        let mut e = HuntCrossleyEstimator::try_new(HuntCrossleyConfig::default()).unwrap();
+        let g = HuntCrossleyGuards::default();
+        for (n, bound) in [(5.0, g.max_exponent), (0.1, g.min_exponent)] {
+            let start = HuntCrossleyParameters {
+                k: 2.0e5,
+                lambda: 3.0e3,
+                n,
+            };
+            e.start_from(&start);
+            assert_eq!(e.onset_exponent(), Some(bound));
+            let p = e.parameters();
+            assert_eq!(p.n, bound);
+            assert!((p.k / start.k - 1.0).abs() < 1e-5, "{p:?}");
+            assert!((p.lambda / start.lambda - 1.0).abs() < 1e-5, "{p:?}");
+            // reset() returns to the clamped start.
+            e.reset();
+            assert_eq!(e.parameters().n, bound);
+        }
+    }
 }
