@@ -1,4 +1,5 @@
-//! `f32::min`, `f32::max`, `libm::logf` and `libm::expf` with the same results, inline.
+//! `f32::min`, `f32::max`, `libm::logf` and `libm::expf` inline, with the same results (`exp`: but
+//! for |x| ≤ 2⁻¹³).
 //!
 //! On the Cortex-M4F (Armv7E-M, no VMINNM/VMAXNM) `f32::min` and `f32::max` are calls to
 //! `fminf`/`fmaxf`, about 15 instructions each with the call; the 1 kHz path makes a dozen.
