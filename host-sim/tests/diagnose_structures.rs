@@ -804,3 +804,146 @@ fn without_free_space_the_residual_colour_counts_the_samples() {
         );
     }
 }
+
+/// (time \[s\], position \[m\], force \[N\]) of a ramp-and-hold at 500 Hz on a
+/// Kelvin-Voigt material (κ = 5458 N/m, λ = 521 N·s/m) with, if `relaxed` > 0, a Maxwell
+/// arm that relaxes that fraction of the elastic force with time constant `tau` \[s\]:
+/// free space, a ramp in at 10-20 mm/s to 3-5 mm, a 6-12 s hold, the ramp out and free
+/// space again; the load cell's zero drifting at `drift` \[N/s\] from the first sample;
+/// AR(1) noise of 0.05 N with lag-1 correlation `phi`.
+fn ramp_and_hold(
+    seed: u64,
+    drift: f64,
+    relaxed: f64,
+    tau: f64,
+    phi: f64,
+    free: f64,
+) -> Vec<(f64, f64, f64)> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (kappa, lambda) = (5458.0, 520.7);
+    let depth = rng.random_range(3.0e-3..5.0e-3);
+    let speed = rng.random_range(0.010..0.020);
+    let gap = depth * rng.random_range(0.2..0.5);
+    let t_in = rng.random_range(0.5..1.0) * free;
+    let ramp = (depth + gap) / speed;
+    let hold = rng.random_range(6.0..12.0);
+    let points = [
+        (0.0, -gap),
+        (t_in, -gap),
+        (t_in + ramp, depth),
+        (t_in + ramp + hold, depth),
+        (t_in + 2.0 * ramp + hold, -gap),
+        (t_in + 2.0 * ramp + hold + free, -gap),
+    ];
+    let fs = 500.0;
+    let samples = (points[5].0 * fs) as usize;
+    let noise = Normal::new(0.0, 0.05).unwrap();
+    let innovation = (1.0 - phi * phi).sqrt();
+    let mut coloured = 0.0;
+    let encoder = 1.0e-6;
+    // Maxwell arm of stiffness relaxed·κ/(1 − relaxed): the instantaneous elastic force
+    // κ·δ/(1 − relaxed) relaxes to κ·δ, the fraction `relaxed` of it (the arm's force σ
+    // decays by e^(−1/(fs·τ)) a sample and takes each sample's step in depth).
+    let arm = if relaxed > 0.0 {
+        relaxed * kappa / (1.0 - relaxed)
+    } else {
+        0.0
+    };
+    let decay = (-1.0 / (fs * tau.max(1e-9))).exp();
+    let (mut sigma, mut z_prev) = (0.0, -gap);
+    (0..samples)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let k = points.windows(2).position(|w| t < w[1].0).unwrap_or(4);
+            let ((t0, z0), (t1, z1)) = (points[k], points[k + 1]);
+            let v = (z1 - z0) / (t1 - t0);
+            let z = z0 + v * (t - t0);
+            sigma = sigma * decay + arm * (z.max(0.0) - z_prev.max(0.0));
+            z_prev = z;
+            let f = if z > 0.0 {
+                (kappa * z + lambda * v + sigma).max(0.0)
+            } else {
+                0.0
+            };
+            coloured = phi * coloured + innovation * noise.sample(&mut rng);
+            let measured = f - 3.473 + drift * t + coloured;
+            let x = 6.68e-4 + z;
+            (t, (x / encoder).round() * encoder, measured)
+        })
+        .collect()
+}
+
+/// The interleaved folds (`scoring::interleaved_block`) hold out short blocks, where a
+/// slow function of time is predicted almost in-sample: on a ramp-and-hold, which always
+/// interleaves, a drifting load-cell zero must still be named a drift, not relaxation, a
+/// relaxing material relaxation, not a drift, both both, and slow coloured noise
+/// neither; each with its own parameter within 10 %. (Seeds 0-5 were looked at while the
+/// generator was written: 48 of 48 logs right, two of ten relaxation + drift logs with a
+/// force offset besides; these seeds were not.)
+#[test]
+fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
+    let dir = tempfile::tempdir().unwrap();
+    let within = |fitted: Option<f64>, truth: f64, what: &str, seed: u64| {
+        let fitted = fitted.unwrap_or_else(|| panic!("seed {seed}: no {what}"));
+        assert!(
+            (fitted - truth).abs() <= 0.1 * truth.abs(),
+            "seed {seed}: {what} {fitted}, truth {truth}"
+        );
+    };
+    for seed in 10..13u64 {
+        let drift = if seed % 2 == 0 { 0.1 } else { -0.1 };
+        let diagnose = |name: &str, drift: f64, relaxed: f64, phi: f64| {
+            let rows = ramp_and_hold(seed, drift, relaxed, 2.0, phi, 1.0);
+            let d = diagnose_rows(dir.path(), &format!("{name}-{seed}.csv"), &rows);
+            assert!(d.cv_block.is_some(), "seed {seed} {name}: contiguous folds");
+            d
+        };
+        let d = diagnose("drift", drift, 0.0, 0.0);
+        let named = d.effects_added();
+        assert_eq!(
+            named.first(),
+            Some(&"force_drift"),
+            "seed {seed}: {named:?}"
+        );
+        assert!(!named.contains(&"relaxation"), "seed {seed}: {named:?}");
+        within(
+            d.final_fit.parameter(Param::ForceDriftNPerS),
+            drift,
+            "drift",
+            seed,
+        );
+
+        let d = diagnose("relaxation", 0.0, 0.2, 0.0);
+        let named = d.effects_added();
+        assert_eq!(named.first(), Some(&"relaxation"), "seed {seed}: {named:?}");
+        assert!(!named.contains(&"force_drift"), "seed {seed}: {named:?}");
+        within(d.final_fit.parameter(Param::RatePerS), 0.5, "rate", seed);
+        within(
+            d.final_fit.parameter(Param::RelaxedFraction),
+            0.2,
+            "fraction",
+            seed,
+        );
+
+        let d = diagnose("both", drift, 0.2, 0.0);
+        let named = d.effects_added();
+        assert!(
+            named.contains(&"relaxation") && named.contains(&"force_drift"),
+            "seed {seed}: {named:?}"
+        );
+        within(
+            d.final_fit.parameter(Param::ForceDriftNPerS),
+            drift,
+            "drift",
+            seed,
+        );
+        within(d.final_fit.parameter(Param::RatePerS), 0.5, "rate", seed);
+
+        let d = diagnose("ar1", 0.0, 0.0, 0.95);
+        let named = d.effects_added();
+        assert!(
+            !named.contains(&"relaxation") && !named.contains(&"force_drift"),
+            "seed {seed}: {named:?}"
+        );
+    }
+}
