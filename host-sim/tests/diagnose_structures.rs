@@ -421,6 +421,18 @@ enum Zero {
     Drift(f64),
 }
 
+/// Penetration z \[m\] and its rate \[m/s\] at `t` \[s\] on the piecewise-linear path
+/// through the (time, z) `points` (held on the last segment's line past its end).
+fn waypoint_at(points: &[(f64, f64)], t: f64) -> (f64, f64) {
+    let k = points
+        .windows(2)
+        .position(|w| t < w[1].0)
+        .unwrap_or(points.len() - 2);
+    let ((t0, z0), (t1, z1)) = (points[k], points[k + 1]);
+    let rate = (z1 - z0) / (t1 - t0);
+    (z0 + rate * (t - t0), rate)
+}
+
 /// (time \[s\], position \[m\], force \[N\]) of six Kelvin-Voigt taps at 124 Hz, from
 /// free space, with the load cell's `zero` and AR(1) noise of lag-1 correlation `phi`
 /// (0: white).
@@ -442,20 +454,11 @@ fn taps(seed: u64, zero: Zero, phi: f64) -> Vec<(f64, f64, f64)> {
         t += rng.random_range(0.1..0.4);
         points.push((t, -gap));
     }
-    let z_at = |t: f64| -> (f64, f64) {
-        let k = points
-            .windows(2)
-            .position(|w| t < w[1].0)
-            .unwrap_or(points.len() - 2);
-        let ((t0, z0), (t1, z1)) = (points[k], points[k + 1]);
-        let rate = (z1 - z0) / (t1 - t0);
-        (z0 + rate * (t - t0), rate)
-    };
     let fs = 124.22;
     let samples = (t * fs) as usize;
     let force: Vec<(f64, f64)> = (0..samples)
         .map(|i| {
-            let (z, v) = z_at(i as f64 / fs);
+            let (z, v) = waypoint_at(&points, i as f64 / fs);
             let f = if z > 0.0 {
                 (kappa * z + lambda * v).max(0.0)
             } else {
@@ -854,10 +857,7 @@ fn ramp_and_hold(
     (0..samples)
         .map(|i| {
             let t = i as f64 / fs;
-            let k = points.windows(2).position(|w| t < w[1].0).unwrap_or(4);
-            let ((t0, z0), (t1, z1)) = (points[k], points[k + 1]);
-            let v = (z1 - z0) / (t1 - t0);
-            let z = z0 + v * (t - t0);
+            let (z, v) = waypoint_at(&points, t);
             sigma = sigma * decay + arm * (z.max(0.0) - z_prev.max(0.0));
             z_prev = z;
             let f = if z > 0.0 {
