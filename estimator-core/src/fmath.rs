@@ -1,5 +1,5 @@
-//! `f32::min`, `f32::max`, `libm::logf` and `libm::expf` inline, with the same results (`exp`: but
-//! for |x| ≤ 2⁻¹³).
+//! `f32::min`, `f32::max`, `libm::logf` and `libm::expf` inline, with the same results
+//! (`exp`: but for |x| ≤ 2⁻¹³).
 //!
 //! On the Cortex-M4F (Armv7E-M, no VMINNM/VMAXNM) `f32::min` and `f32::max` are calls to
 //! `fminf`/`fmaxf`, about 15 instructions each with the call; the 1 kHz path makes a dozen.
@@ -108,7 +108,8 @@ pub(crate) fn exp(x: f32) -> f32 {
     const INV_LN2: f32 = f32::from_bits(0x3fb8_aa3b); // 1.4426950216
     const P1: f32 = f32::from_bits(0x3e2a_aa8f); // 1.6666625440e-1
     const P2: f32 = f32::from_bits(0xbb35_5215); // -2.7667332906e-3
-                                                 // 1.5·2²³: x/ln2 + this is rounded to an integer, whose low bits are k.
+
+    // 1.5·2²³: x/ln2 + this is rounded to an integer, whose low bits are k.
     const ROUND: f32 = 12_582_912.0;
     if x.to_bits() & 0x7fff_ffff >= 0x42ae_ac50 {
         return libm::expf(x);
