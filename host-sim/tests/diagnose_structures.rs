@@ -421,6 +421,15 @@ enum Zero {
     Drift(f64),
 }
 
+/// Asserts that a fitted parameter exists and is within 10 % of the truth.
+fn assert_within_10_percent(fitted: Option<f64>, truth: f64, what: &str) {
+    let fitted = fitted.unwrap_or_else(|| panic!("{what}: not fitted"));
+    assert!(
+        (fitted - truth).abs() <= 0.1 * truth.abs(),
+        "{what} = {fitted}, truth {truth}"
+    );
+}
+
 /// Penetration z \[m\] and its rate \[m/s\] at `t` \[s\] on the piecewise-linear path
 /// through the (time, z) `points` (held on the last segment's line past its end).
 fn waypoint_at(points: &[(f64, f64)], t: f64) -> (f64, f64) {
@@ -705,12 +714,7 @@ fn two_effects_that_pass_only_together_are_named_together() {
     assert!(!alone.significant);
     assert!(second.candidates[0].significant);
     assert!(d.final_fit.nrmse_percent < 0.6 * d.baseline_fit.nrmse_percent);
-    let n = d.final_fit.parameter(Param::N).expect("the exponent");
-    assert!(
-        (n - r.truth.n).abs() <= 0.10 * r.truth.n,
-        "n = {n}, truth {}",
-        r.truth.n
-    );
+    assert_within_10_percent(d.final_fit.parameter(Param::N), r.truth.n, "the exponent n");
 }
 
 /// Where the probe moves in fewer fifths of the record than the acceptance rule asks
@@ -735,12 +739,7 @@ fn a_ramp_and_hold_is_judged_on_interleaved_folds() {
     assert_eq!(added, ["depth_dependent_damping", "power_law_stiffness"]);
     assert!(d.steps.iter().all(|s| s.jointly_with.is_none()));
     assert!(d.final_fit.nrmse_percent < 0.5 * d.baseline_fit.nrmse_percent);
-    let n = d.final_fit.parameter(Param::N).expect("the exponent");
-    assert!(
-        (n - r.truth.n).abs() <= 0.10 * r.truth.n,
-        "n = {n}, truth {}",
-        r.truth.n
-    );
+    assert_within_10_percent(d.final_fit.parameter(Param::N), r.truth.n, "the exponent n");
     let (_, before) = diagnose_generated_with(
         dir.path(),
         Structure::RampHold,
@@ -883,13 +882,6 @@ fn ramp_and_hold(
 #[test]
 fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
     let dir = tempfile::tempdir().unwrap();
-    let within = |fitted: Option<f64>, truth: f64, what: &str, seed: u64| {
-        let fitted = fitted.unwrap_or_else(|| panic!("seed {seed}: no {what}"));
-        assert!(
-            (fitted - truth).abs() <= 0.1 * truth.abs(),
-            "seed {seed}: {what} {fitted}, truth {truth}"
-        );
-    };
     for seed in 10..13u64 {
         let drift = if seed % 2 == 0 { 0.1 } else { -0.1 };
         let diagnose = |name: &str, drift: f64, relaxed: f64, phi: f64| {
@@ -906,23 +898,25 @@ fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
             "seed {seed}: {named:?}"
         );
         assert!(!named.contains(&"relaxation"), "seed {seed}: {named:?}");
-        within(
+        assert_within_10_percent(
             d.final_fit.parameter(Param::ForceDriftNPerS),
             drift,
-            "drift",
-            seed,
+            &format!("seed {seed}: drift"),
         );
 
         let d = diagnose("relaxation", 0.0, 0.2, 0.0);
         let named = d.effects_added();
         assert_eq!(named.first(), Some(&"relaxation"), "seed {seed}: {named:?}");
         assert!(!named.contains(&"force_drift"), "seed {seed}: {named:?}");
-        within(d.final_fit.parameter(Param::RatePerS), 0.5, "rate", seed);
-        within(
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::RatePerS),
+            0.5,
+            &format!("seed {seed}: rate"),
+        );
+        assert_within_10_percent(
             d.final_fit.parameter(Param::RelaxedFraction),
             0.2,
-            "fraction",
-            seed,
+            &format!("seed {seed}: fraction"),
         );
 
         let d = diagnose("both", drift, 0.2, 0.0);
@@ -931,13 +925,16 @@ fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
             named.contains(&"relaxation") && named.contains(&"force_drift"),
             "seed {seed}: {named:?}"
         );
-        within(
+        assert_within_10_percent(
             d.final_fit.parameter(Param::ForceDriftNPerS),
             drift,
-            "drift",
-            seed,
+            &format!("seed {seed}: drift"),
         );
-        within(d.final_fit.parameter(Param::RatePerS), 0.5, "rate", seed);
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::RatePerS),
+            0.5,
+            &format!("seed {seed}: rate"),
+        );
 
         let d = diagnose("ar1", 0.0, 0.0, 0.95);
         let named = d.effects_added();
