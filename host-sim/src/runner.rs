@@ -13,7 +13,7 @@ use estimator_core::{
 use serde::Serialize;
 
 use crate::phases::{self, Phase, PhaseClassifier};
-use crate::simulate::{nrmse_percent, simulate_force, vaf_percent};
+use crate::simulate::{nrmse_percent_of, simulate_force, vaf_percent_of};
 
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]
@@ -330,7 +330,7 @@ pub fn fit_quality_on(
     trace: &Trace,
     judged: &[bool],
 ) -> (Option<f64>, Option<f64>) {
-    let Some(mut model) = simulate_force(
+    let Some(model) = simulate_force(
         parameters,
         sample_time_s,
         &trace.depth_m,
@@ -339,22 +339,14 @@ pub fn fit_quality_on(
     ) else {
         return (None, None);
     };
-    // The judged samples, the model's compacted in place (a long record's trace is
-    // tens of MB; no second copy of it).
-    let mut measured = Vec::with_capacity(judged.iter().filter(|j| **j).count());
-    let mut kept = 0;
-    for (i, j) in judged.iter().enumerate().take(model.len()) {
-        if *j {
-            model[kept] = model[i];
-            measured.push(trace.force_n[i]);
-            kept += 1;
-        }
-    }
-    model.truncate(kept);
-    (
-        nrmse_percent(&measured, &model),
-        vaf_percent(&measured, &model),
-    )
+    // The judged samples read where they lie (a long record's trace is tens of MB: no
+    // copy of them).
+    let pairs = judged
+        .iter()
+        .zip(trace.force_n.iter().zip(&model))
+        .filter(|(j, _)| **j)
+        .map(|(_, (m, s))| (*m, *s));
+    (nrmse_percent_of(pairs.clone()), vaf_percent_of(pairs))
 }
 
 /// The model simulated with `parameters` on the trace's motion (0 out of contact).

@@ -105,45 +105,57 @@ pub fn simulate_force(
 }
 
 /// Normalised RMS error of `model` against `measured`, in percent of the measured range
-/// (max − min): 100·sqrt(mean((m − s)²))/range. `None` on an empty or flat record.
+/// (max − min): 100·sqrt(mean((m − s)²))/range. `None` on an empty or flat record, or
+/// on slices of different lengths.
 pub fn nrmse_percent(measured: &[f64], model: &[f64]) -> Option<f64> {
-    if measured.is_empty() || measured.len() != model.len() {
+    if measured.len() != model.len() {
         return None;
     }
-    let (lo, hi) = measured
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
+    nrmse_percent_of(measured.iter().copied().zip(model.iter().copied()))
+}
+
+/// [`nrmse_percent`] of (measured, model) pairs, read without a copy (a long record's
+/// judged samples are megabytes); the sums in the same order, so the same value.
+pub fn nrmse_percent_of(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> Option<f64> {
+    let (count, lo, hi) = pairs.clone().fold(
+        (0usize, f64::INFINITY, f64::NEG_INFINITY),
+        |(count, lo, hi), (m, _)| (count + 1, lo.min(m), hi.max(m)),
+    );
     let range = hi - lo;
-    if range.is_nan() || range <= 0.0 {
+    if count == 0 || range.is_nan() || range <= 0.0 {
         return None;
     }
-    let mse = measured
-        .iter()
-        .zip(model)
-        .map(|(m, s)| (m - s) * (m - s))
-        .sum::<f64>()
-        / measured.len() as f64;
+    let mse = pairs.map(|(m, s)| (m - s) * (m - s)).sum::<f64>() / count as f64;
     Some(100.0 * mse.sqrt() / range)
 }
 
-/// Variance accounted for, percent: 100·(1 − var(m − s)/var(m)).
+/// Variance accounted for, percent: 100·(1 − var(m − s)/var(m)). `None` below 2 samples,
+/// on a flat record, or on slices of different lengths.
 pub fn vaf_percent(measured: &[f64], model: &[f64]) -> Option<f64> {
-    let n = measured.len();
-    if n < 2 || n != model.len() {
+    if measured.len() != model.len() {
         return None;
     }
-    let var = |v: &mut dyn Iterator<Item = f64>| {
-        let xs: Vec<f64> = v.collect();
-        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
-        xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / xs.len() as f64
-    };
-    let vm = var(&mut measured.iter().copied());
+    vaf_percent_of(measured.iter().copied().zip(model.iter().copied()))
+}
+
+/// The variance of the `n` values of `values`, in two passes (the mean, then the squared
+/// deviations from it).
+fn variance(values: impl Iterator<Item = f64> + Clone, n: usize) -> f64 {
+    let mean = values.clone().sum::<f64>() / n as f64;
+    values.map(|x| (x - mean) * (x - mean)).sum::<f64>() / n as f64
+}
+
+/// [`vaf_percent`] of (measured, model) pairs, read without a copy.
+pub fn vaf_percent_of(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> Option<f64> {
+    let n = pairs.clone().count();
+    if n < 2 {
+        return None;
+    }
+    let vm = variance(pairs.clone().map(|(m, _)| m), n);
     if vm.is_nan() || vm <= 0.0 {
         return None;
     }
-    let vr = var(&mut measured.iter().zip(model).map(|(m, s)| m - s));
+    let vr = variance(pairs.map(|(m, s)| m - s), n);
     Some(100.0 * (1.0 - vr / vm))
 }
 
