@@ -159,7 +159,9 @@ fn front_end_nrmse_percent(front: &FrontEnd) -> f64 {
 const AGREEMENT: (f64, f64, f64) = (0.05, 0.03, 0.30);
 
 /// How the online estimate `online` differs from the front end's whole-record fit beyond
-/// [`AGREEMENT`], in words, for the memoryless models (`None`: it agrees, or there is no
+/// [`AGREEMENT`], in words, for the memoryless models and the Hammerstein form (its
+/// instantaneous law γ1·δ^γ2 against the power-law QLV fit's, eqs. 14 and 38: the linear
+/// part's gain at the first sample is 1) (`None`: it agrees, or there is no
 /// like-for-like comparison).
 fn disagreement(
     front: &FrontEnd,
@@ -167,7 +169,10 @@ fn disagreement(
     held: &BTreeMap<String, f64>,
 ) -> Option<String> {
     let law = &front.law;
-    if law.family.has_relaxation() {
+    let hammerstein = matches!(online, AnyParameters::Hammerstein { .. });
+    if law.family.has_relaxation() != hammerstein
+        || (hammerstein && law.family != frontend::fit::LawFamily::PowerLawRelaxation)
+    {
         return None;
     }
     let (depth, rate) = front.series_depth_and_rate();
@@ -200,20 +205,35 @@ fn disagreement(
             law.exponent,
             AGREEMENT.0,
         ),
+        AnyParameters::Hammerstein { gamma1, gamma2, .. } => (
+            f64::from(gamma2),
+            f64::from(gamma1),
+            0.0,
+            law.exponent,
+            AGREEMENT.0,
+        ),
         _ => return None,
     };
     let elastic = |k: f64, n: f64| k * d.powf(n);
-    let (fit_elastic, online_elastic) = (elastic(law.stiffness, n_fit), elastic(stiffness, n));
+    let (fit_elastic, online_elastic) = (
+        elastic(law.instantaneous_stiffness(), n_fit),
+        elastic(stiffness, n),
+    );
     let mut out = Vec::new();
+    let (exponent, force) = if hammerstein {
+        ("gamma2", "instantaneous elastic force")
+    } else {
+        ("n", "elastic force")
+    };
     if (n - n_fit).abs() > AGREEMENT.0 * n_fit {
-        out.push(format!("n {n:.4} vs {n_fit:.4}"));
+        out.push(format!("{exponent} {n:.4} vs {n_fit:.4}"));
     }
     if (online_elastic - fit_elastic).abs() > tolerance * fit_elastic.abs() {
         out.push(format!(
-            "elastic force at {d:.3e} m {online_elastic:.4e} vs {fit_elastic:.4e} N"
+            "{force} at {d:.3e} m {online_elastic:.4e} vs {fit_elastic:.4e} N"
         ));
     }
-    if !held.contains_key("lambda") {
+    if !held.contains_key("lambda") && !hammerstein {
         let viscous =
             |lambda: f64, n: f64| lambda * d.powf(n - if n_fit == 1.0 { 1.0 } else { 0.0 }) * v;
         let (fit_viscous, online_viscous) = (viscous(law.damping(), n_fit), viscous(lambda, n));
@@ -453,26 +473,25 @@ pub fn estimate_file(
         result.phase_speed_threshold_m_per_s
     ));
     let whole_record = front_end_nrmse_percent(&front);
-    let mut converged = result
+    let fits = result
         .nrmse_percent
         .is_some_and(|online| online <= (2.0 * whole_record).max(whole_record + 2.0));
-    if converged {
-        if let Some(difference) = disagreement(&front, &result.parameters, &held) {
-            converged = false;
-            warnings.push(format!(
-                "the online estimate differs from the whole-record fit ({difference}): the \
-                 estimator has not settled on this record (a low sample rate, fast or brief \
-                 motion); the whole-record fit is in the JSON's front_end.law"
-            ));
-        }
-    }
-    if !converged {
+    let mut converged = fits;
+    if !fits {
         warnings.push(format!(
             "the online estimate fits the record much worse than the whole-record fit (NRMSE {} vs {whole_record:.2} %): \
              it has not converged within the record, or the model misses an effect (try `diagnose`)",
             result
                 .nrmse_percent
                 .map_or("-".into(), |v| format!("{v:.2} %"))
+        ));
+    } else if let Some(difference) = disagreement(&front, &result.parameters, &held) {
+        // (Only this warning: the online estimate fits as well, its parameters differ.)
+        converged = false;
+        warnings.push(format!(
+            "the online estimate differs from the whole-record fit ({difference}): the \
+             estimator has not settled on this record (a low sample rate, fast or brief \
+             motion); the whole-record fit is in the JSON's front_end.law"
         ));
     }
     let mut identifiable: BTreeMap<String, bool> = runner::named(&result.parameters)
