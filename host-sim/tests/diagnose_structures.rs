@@ -944,3 +944,272 @@ fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
         );
     }
 }
+
+/// (time \[s\], position \[m\], force \[N\]) of a stress-relaxation test at 1 kHz: a
+/// power-law material whose instantaneous elastic force k·δⁿ relaxes by the fraction
+/// `relaxed` with time constant `tau` \[s\] (one mode on the elastic force, the QLV of
+/// eqs. 10/14: the mode's force decays by e^(−T/τ) a sample and takes that fraction of
+/// each sample's step in k·δⁿ), 20-50 ms of free space (too little to measure the
+/// noise's colour on), one ramp in at 5-15 mm/s to 3-6 mm, then a hold to the end of the
+/// record, 5-10 s: no retract. Peak force about 20 N, white noise of 0.05 N, 1 µm
+/// encoder steps, a 0.8 N load-cell offset. Returns the rows and k.
+fn stress_relaxation(seed: u64, n: f64, relaxed: f64, tau: f64) -> (Vec<(f64, f64, f64)>, f64) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let depth: f64 = rng.random_range(3.0e-3..6.0e-3);
+    let k = 20.0 / depth.powf(n);
+    let speed = rng.random_range(0.005..0.015);
+    let gap = 0.2e-3;
+    let t_in = rng.random_range(0.02..0.05);
+    let ramp = (depth + gap) / speed;
+    let end = t_in + ramp + rng.random_range(5.0..10.0);
+    let points = [
+        (0.0, -gap),
+        (t_in, -gap),
+        (t_in + ramp, depth),
+        (end, depth),
+    ];
+    let fs = 1000.0;
+    let noise = Normal::new(0.0, 0.05).unwrap();
+    let decay = (-1.0 / (fs * tau)).exp();
+    let (mut mode, mut elastic_prev) = (0.0, 0.0);
+    let rows = (0..(end * fs) as usize)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let (z, _) = waypoint_at(&points, t);
+            let elastic = k * z.max(0.0).powf(n);
+            mode = mode * decay + relaxed * (elastic - elastic_prev);
+            elastic_prev = elastic;
+            let f = if z > 0.0 {
+                ((1.0 - relaxed) * elastic + mode).max(0.0)
+            } else {
+                0.0
+            };
+            let x = 12.3e-3 + z;
+            (
+                t,
+                (x / 1e-6).round() * 1e-6,
+                0.8 + f + noise.sample(&mut rng),
+            )
+        })
+        .collect();
+    (rows, k)
+}
+
+/// A stress-relaxation test passes each depth once, at one speed, but its hold shows a
+/// relaxation: the depth stays while the force decays, which no elastic law does. So
+/// relaxation is tried there and named with the power law, each with its parameters
+/// (`identifiability::holds_in_contact`); with too little free space to measure the
+/// noise's colour on, the folds still interleave (`scoring::interleaved_block`: on
+/// contiguous fifths the power law, which took the NRMSE from 0.73 to 0.22 %, was
+/// refused for the held-out ramp). An independent generator's no-retract ramp-and-hold
+/// logs were named nothing (relaxation "not identifiable") or relaxation alone in 9 of
+/// 11. (Seeds 20-22, n = 1.3-1.5, relaxed 30-45 %, τ = 0.5-2 s; not looked at before
+/// the asserts were written.)
+#[test]
+fn a_stress_relaxation_test_names_relaxation_and_the_power_law() {
+    let dir = tempfile::tempdir().unwrap();
+    for (seed, n, relaxed, tau) in [
+        (20, 1.3, 0.3, 0.5),
+        (21, 1.4, 0.45, 2.0),
+        (22, 1.5, 0.35, 1.0),
+    ] {
+        let (rows, _) = stress_relaxation(seed, n, relaxed, tau);
+        let d = diagnose_rows(dir.path(), &format!("sr-{seed}.csv"), &rows);
+        let named = d.effects_added();
+        assert!(
+            named.contains(&"relaxation") && named.contains(&"power_law_stiffness"),
+            "seed {seed}: {named:?}"
+        );
+        assert!(
+            !d.unidentifiable.contains(&Effect::Relaxation),
+            "seed {seed}"
+        );
+        assert!(d.cv_block.is_some(), "seed {seed}: contiguous folds");
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::N),
+            n,
+            &format!("seed {seed}: n"),
+        );
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::RelaxedFraction),
+            relaxed,
+            &format!("seed {seed}: relaxed fraction"),
+        );
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::RatePerS),
+            1.0 / tau,
+            &format!("seed {seed}: rate"),
+        );
+    }
+}
+
+/// On a record that never leaves contact under a linear elastic law, a shift of the
+/// contact point changes the force by a constant, which the tare takes: the diagnosis
+/// reports neither as determined (the independent generator's Kelvin-Voigt sine in
+/// contact was given a 1.78 N tare, truth 0, and a contact point 0.43 mm off, with
+/// standard errors of 2 mN and 2 µm).
+#[test]
+fn in_contact_throughout_a_linear_law_does_not_determine_tare_and_contact_point() {
+    use host_sim::diagnose::catalogue::Determination;
+    let dir = tempfile::tempdir().unwrap();
+    for seed in 0..2 {
+        let d = diagnose_rows(
+            dir.path(),
+            &format!("in-{seed}.csv"),
+            &delayed_sine(seed, false, 0.0),
+        );
+        assert!(
+            d.effects_added().is_empty(),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+        for param in [Param::TareN, Param::ContactPositionM] {
+            let estimate = d
+                .final_fit
+                .parameters
+                .iter()
+                .find(|e| e.param == param)
+                .unwrap();
+            assert!(
+                matches!(estimate.determination, Determination::CombinationOnly(_)),
+                "seed {seed}: {estimate:?}"
+            );
+            assert!(
+                estimate.standard_error.is_nan(),
+                "seed {seed}: {estimate:?}"
+            );
+        }
+        // With lift-offs the free space fixes both.
+        let d = diagnose_rows(
+            dir.path(),
+            &format!("out-{seed}.csv"),
+            &delayed_sine(seed, true, 0.0),
+        );
+        let tare = d
+            .final_fit
+            .parameters
+            .iter()
+            .find(|e| e.param == Param::TareN)
+            .unwrap();
+        assert_eq!(tare.determination, Determination::Determined, "seed {seed}");
+    }
+}
+
+/// The online Hammerstein estimator (eqs. 38-42) on a stress-relaxation test with a fast
+/// mode: its γ1 and γ2 within 10 % of the instantaneous law k·δⁿ, or the run says it has
+/// not settled (not converged, a warning) while the whole-record fit it points to is
+/// right. An independent generator's τ ≤ 0.5 s logs had γ1 37 % low, reported converged
+/// without a warning (`files::disagreement` now compares the Hammerstein form too).
+/// (Seeds 30-31, not looked at before the asserts were written.)
+#[test]
+fn a_hammerstein_estimate_of_a_fast_relaxation_is_right_or_says_it_has_not_settled() {
+    use estimator_core::{AnyParameters, ModelKind};
+    let dir = tempfile::tempdir().unwrap();
+    for (seed, n, relaxed, tau) in [(30, 1.2, 0.4, 0.3), (31, 1.6, 0.3, 0.5)] {
+        let (rows, k) = stress_relaxation(seed, n, relaxed, tau);
+        let path = dir.path().join(format!("sr-{seed}.csv"));
+        let mut text = String::from("time_s,position_m,force_n\n");
+        for (t, x, f) in &rows {
+            text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
+        }
+        std::fs::write(&path, text).unwrap();
+        let run = host_sim::files::estimate_file(
+            ModelKind::Hammerstein1,
+            &path,
+            "auto",
+            &Overrides::default(),
+            None,
+        )
+        .unwrap();
+        let AnyParameters::Hammerstein { gamma1, gamma2, .. } = run.result.parameters else {
+            panic!("seed {seed}: {:?}", run.result.parameters);
+        };
+        let (gamma1, gamma2) = (f64::from(gamma1), f64::from(gamma2));
+        let right = (gamma1 - k).abs() <= 0.1 * k && (gamma2 - n).abs() <= 0.1 * n;
+        assert!(
+            right || (!run.converged && !run.warnings.is_empty()),
+            "seed {seed}: γ1 {gamma1:.4e} (k {k:.4e}), γ2 {gamma2:.3} (n {n}), converged {}, {:?}",
+            run.converged,
+            run.warnings
+        );
+        let law = &run.front_end.law;
+        assert_within_10_percent(Some(law.exponent), n, &format!("seed {seed}: fit n"));
+        assert_within_10_percent(
+            Some(law.instantaneous_stiffness()),
+            k,
+            &format!("seed {seed}: fit k"),
+        );
+    }
+}
+
+/// (time \[s\], position \[m\], force \[N\]) of a clean Kelvin-Voigt material (κ = 5458
+/// N/m, λ = 521 N·s/m) sampled at 100 Hz: three load/unload triangles to 2-5 mm at 3, 10
+/// and 30 mm/s, 0.5 s of free space before each and after the last, white noise of
+/// 0.05 N, 1 µm encoder steps.
+fn kelvin_voigt_triangles_at_100_hz(seed: u64) -> Vec<(f64, f64, f64)> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (kappa, lambda) = (5458.0, 520.7);
+    let gap = 0.5e-3;
+    let mut points = vec![(0.0, -gap)];
+    let mut t = 0.0;
+    for speed in [0.003, 0.010, 0.030] {
+        let depth: f64 = rng.random_range(2.0e-3..5.0e-3);
+        t += 0.5;
+        points.push((t, -gap));
+        t += (depth + gap) / speed;
+        points.push((t, depth));
+        t += (depth + gap) / speed;
+        points.push((t, -gap));
+    }
+    points.push((t + 0.5, -gap));
+    let fs = 100.0;
+    let noise = Normal::new(0.0, 0.05).unwrap();
+    (0..((t + 0.5) * fs) as usize)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let (z, v) = waypoint_at(&points, t);
+            let f = if z > 0.0 {
+                (kappa * z + lambda * v).max(0.0)
+            } else {
+                0.0
+            };
+            let x = 4.0e-3 + z;
+            (
+                t,
+                (x / 1e-6).round() * 1e-6,
+                0.3 + f + noise.sample(&mut rng),
+            )
+        })
+        .collect()
+}
+
+/// What a record sampled too coarsely to resolve is not named: a relaxation mode a few
+/// samples fast (its rate at the fast end of the search, 0.2/T) adds c·κ/ν·δ̇ at the
+/// record's rates, a damping, which the baseline has; a delay under half a sample is the
+/// rate's own discretization at a reversal that falls between two samples. (An
+/// independent generator's clean Kelvin-Voigt cycles at 100 Hz were given a 6 % mode at
+/// that bound for 0.01 % of NRMSE; seed 42 here a 2.9 ms delay.) Only these guarantees
+/// are asserted: on such triangles at 100 Hz other effects are still named on some logs
+/// (a mass or a power law for the reversals' misfit: 5 of 24 of a Python variant of this
+/// generator), issue 13's open weakness. (Seeds 40-45, not looked at before the asserts
+/// were written but for 42.)
+#[test]
+fn nothing_faster_than_the_record_resolves_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in 40..46 {
+        let rows = kelvin_voigt_triangles_at_100_hz(seed);
+        let d = diagnose_rows(dir.path(), &format!("kv100-{seed}.csv"), &rows);
+        let fit = &d.final_fit;
+        if let Some(delay) = fit.parameter(Param::DelayS) {
+            assert!(
+                delay.abs() >= 0.5 * 0.01,
+                "seed {seed}: delay {delay:.3e} s"
+            );
+        }
+        assert!(
+            !fit.relaxes_at_the_fast_bound(),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+    }
+}

@@ -402,6 +402,11 @@ pub enum Determination {
     /// z − u ≈ −ν·∫u dt, so its
     /// fraction c and rate ν trade at a fixed c·ν (eqs. 5-17 with ν·T ≪ 1).
     ProductOnly(Param),
+    /// Only a combination with the named parameter is determined: on a record that never
+    /// leaves contact under a linear elastic law, a shift Δ of the contact point changes
+    /// the force by the constant κ·Δ, which the tare takes (κ·(δ − Δ) + F0 = κ·δ + (F0 −
+    /// κ·Δ)), so the tare and the contact point trade along a line of equal fit.
+    CombinationOnly(Param),
 }
 
 /// A fitted parameter: SI value and standard error (NaN where not estimated, 0 for a

@@ -73,6 +73,27 @@ fn spread_at_depth_where(
     (within / count as f64).sqrt() / rms
 }
 
+/// Whether the fit window holds the probe still in contact long enough to show a
+/// relaxation: at least [`MIN_HOLD_SAMPLES`] fitting samples and [`MIN_HOLD_SHARE`] of its
+/// contact samples in the hold phase. On a record that passes each depth once (a
+/// stress-relaxation test: one ramp, then a hold to the end), the time since contact is
+/// a function of depth only along the ramp; in the hold the depth stays while a relaxing
+/// force decays, which no elastic law does.
+pub fn holds_in_contact(data: &Prepared, start: usize) -> bool {
+    let contact = (start..data.len()).filter(|&i| data.contact[i]).count();
+    let hold = (start..data.len())
+        .filter(|&i| data.contact[i] && data.phase[i] == Phase::Hold)
+        .count();
+    hold >= MIN_HOLD_SAMPLES && hold as f64 >= MIN_HOLD_SHARE * contact as f64
+}
+
+/// Fewest fitting samples of a hold in contact for [`holds_in_contact`].
+pub const MIN_HOLD_SAMPLES: usize = 20;
+
+/// Smallest share of the contact samples in a hold for [`holds_in_contact`] (a ramp's
+/// last samples, classed as a hold where the probe slows, do not make one).
+pub const MIN_HOLD_SHARE: f64 = 0.1;
+
 /// [`rate_spread_at_depth`] below which rate effects are not identifiable.
 pub const RATE_SPREAD_MIN: f64 = 0.2;
 
@@ -91,7 +112,7 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
         )
     } else if e == Effect::Relaxation {
         (
-            "each depth is passed once, at one speed: the time since contact is a function of depth, so a relaxing memory of the elastic force is one more elastic law (the elastic reading is kept)",
+            "each depth is passed once, at one speed, and the probe never holds still in contact: the time since contact is a function of depth, so a relaxing memory of the elastic force is one more elastic law (the elastic reading is kept)",
             separating_motion(Effect::PowerLawStiffness, e),
         )
     } else if e == Effect::ForceDrift {

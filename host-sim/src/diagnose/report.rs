@@ -50,6 +50,10 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
             other.id(),
             p.value * fit.parameter(other).unwrap_or(f64::NAN)
         )),
+        Determination::CombinationOnly(other) => Some(format!(
+            "the record never leaves contact and the elastic law is linear: a shift of the contact point changes the force by a constant, which the tare takes, so only their combination is determined, not each (with {}); a lift-off out of contact determines them",
+            other.id()
+        )),
     }
 }
 
@@ -204,12 +208,16 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "yes"
             } else if !c.physical {
                 "no (nonphysical)"
+            } else if c.nested && c.fit.relaxes_at_the_fast_bound() {
+                "no (a mode faster than the record resolves: the damping the model has)"
             } else if c.nested {
                 "no (its parameter stayed at the current model's value)"
             } else if c.unseen_in_free_space {
                 "no (the free-space force shows no such trend)"
             } else if c.unseen_at_contact_edges {
                 "no (the contact onsets and lift-offs do not show it)"
+            } else if c.under_half_a_sample {
+                "no (under half a sample: the rate's own discretization at a reversal or onset)"
             } else {
                 "no"
             },
@@ -360,8 +368,14 @@ pub fn markdown(
         match d.cv_block {
             None => "The folds are contiguous fifths of the fit window.".to_string(),
             Some(b) => format!(
-                "The probe moves in fewer than {} of the fit window's fifths (a hold between brief ramps), where contiguous folds cannot show an effect of the motion on enough folds: the folds interleave, blocks of {} fitting samples (2·N/N_eff of the sensor noise, at least 4) held out in turn, every fifth block one fold. A short held-out block of a slow function of time (relaxation, a drift) is then predicted almost in-sample: the BIC on effective samples is the guard against those.",
-                super::scoring::MIN_MOVING_FOLDS, b
+                "The probe moves in fewer than {} of the fit window's fifths (a hold between brief ramps), where contiguous folds cannot show an effect of the motion on enough folds: the folds interleave, blocks of {} fitting samples (2·N/N_eff of the sensor noise{}, at least 4) held out in turn, every fifth block one fold. A short held-out block of a slow function of time (relaxation, a drift) is then predicted almost in-sample: the BIC on effective samples is the guard against those.",
+                super::scoring::MIN_MOVING_FOLDS,
+                b,
+                if d.noise_sample_fraction.is_some() {
+                    ""
+                } else {
+                    ", as far as the little free space shows it, else taken as white"
+                }
             ),
         }
     );

@@ -191,6 +191,24 @@ impl Fit {
             .collect()
     }
 
+    /// Whether the model's relaxation rate ended at the fast bound of its search (a few
+    /// fitting samples, [`Knob::range`]): the rate is marked at its search bound and the
+    /// fraction is not a product with it (which marks the slow bound, see
+    /// `mark_undetermined`).
+    pub fn relaxes_at_the_fast_bound(&self) -> bool {
+        let determination = |param: Param| {
+            self.parameters
+                .iter()
+                .find(|p| p.param == param)
+                .map(|p| p.determination)
+        };
+        determination(Param::RatePerS) == Some(Determination::AtSearchBound)
+            && !matches!(
+                determination(Param::RelaxedFraction),
+                Some(Determination::ProductOnly(_))
+            )
+    }
+
     /// A parameter's value, if the model has it.
     pub fn parameter(&self, param: Param) -> Option<f64> {
         self.parameters
@@ -924,7 +942,15 @@ fn name_parameters(
             },
         knob_se(Knob::ContactPosition),
     );
-    mark_undetermined(&mut out, effects, nl, scale, data.hold_damping);
+    let in_contact_throughout = (start..data.len()).all(|i| data.contact[i]);
+    mark_undetermined(
+        &mut out,
+        effects,
+        nl,
+        scale,
+        data.hold_damping,
+        in_contact_throughout,
+    );
     out
 }
 
@@ -932,14 +958,22 @@ fn name_parameters(
 /// damping where it is held at 0, a knob at a bound of its search range (the contact only
 /// at the widest, [`MAX_CONTACT_SPAN`]; a plastic set of 0 is a physical bound), and
 /// a relaxation's fraction when its rate sits at the slow bound (only c·ν is fitted
-/// then). Their standard errors become NaN (not reported).
+/// then), and the tare and the contact point of a linear elastic law on a fit window
+/// that never leaves contact (`in_contact_throughout`: only their combination is
+/// fitted). Their standard errors become NaN (not reported).
 fn mark_undetermined(
     out: &mut [Estimate],
     effects: &BTreeSet<Effect>,
     nl: &Nonlinear,
     scale: &Scales,
     hold_damping: bool,
+    in_contact_throughout: bool,
 ) {
+    let linear = !effects.contains(&Effect::PowerLawStiffness)
+        && !effects.contains(&Effect::ExponentialStiffness);
+    let tare_free = out
+        .iter()
+        .any(|e| e.param == Param::TareN && e.determination == Determination::Determined);
     let mut mark = |param: Param, determination: Determination| {
         if let Some(e) = out.iter_mut().find(|e| e.param == param) {
             e.determination = determination;
@@ -959,6 +993,16 @@ fn mark_undetermined(
     }
     if hold_damping {
         mark(Param::Lambda, Determination::Held);
+    }
+    if in_contact_throughout && linear && tare_free {
+        mark(
+            Param::TareN,
+            Determination::CombinationOnly(Param::ContactPositionM),
+        );
+        mark(
+            Param::ContactPositionM,
+            Determination::CombinationOnly(Param::TareN),
+        );
     }
     if effects.contains(&Effect::Relaxation)
         && Knob::RelaxationRate.bound_hit(nl.nu, scale) == Some(Bound::Lower)
