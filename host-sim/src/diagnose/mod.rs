@@ -414,7 +414,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     }
 }
 
-/// Smallest delay named, in fitting samples ([`under_half_a_sample`]): half a sample.
+/// Smallest delay named, in fitting samples (`under_half_a_sample`): half a sample.
 pub const MIN_DELAY_SAMPLES: f64 = 0.5;
 
 /// Whether `fit` has a delay under [`MIN_DELAY_SAMPLES`] fitting samples: the rate's own

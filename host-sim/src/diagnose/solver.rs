@@ -192,7 +192,7 @@ impl Fit {
     }
 
     /// Whether the model's relaxation rate ended at the fast bound of its search (a few
-    /// fitting samples, [`Knob::range`]): the rate is marked at its search bound and the
+    /// fitting samples, `Knob::range`): the rate is marked at its search bound and the
     /// fraction is not a product with it (which marks the slow bound, see
     /// `mark_undetermined`).
     pub fn relaxes_at_the_fast_bound(&self) -> bool {
