@@ -430,6 +430,17 @@ fn assert_within_10_percent(fitted: Option<f64>, truth: f64, what: &str) {
     );
 }
 
+/// [`assert_within_10_percent`] for each (parameter, truth) of `d`'s final model.
+fn assert_fitted_within_10_percent(d: &Diagnosis, seed: u64, truths: &[(Param, f64)]) {
+    for &(param, truth) in truths {
+        assert_within_10_percent(
+            d.final_fit.parameter(param),
+            truth,
+            &format!("seed {seed}: {}", param.id()),
+        );
+    }
+}
+
 /// Penetration z \[m\] and its rate \[m/s\] at `t` \[s\] on the piecewise-linear path
 /// through the (time, z) `points` (held on the last segment's line past its end).
 fn waypoint_at(points: &[(f64, f64)], t: f64) -> (f64, f64) {
@@ -908,15 +919,10 @@ fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
         let named = d.effects_added();
         assert_eq!(named.first(), Some(&"relaxation"), "seed {seed}: {named:?}");
         assert!(!named.contains(&"force_drift"), "seed {seed}: {named:?}");
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::RatePerS),
-            0.5,
-            &format!("seed {seed}: rate"),
-        );
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::RelaxedFraction),
-            0.2,
-            &format!("seed {seed}: fraction"),
+        assert_fitted_within_10_percent(
+            &d,
+            seed,
+            &[(Param::RatePerS, 0.5), (Param::RelaxedFraction, 0.2)],
         );
 
         let d = diagnose("both", drift, 0.2, 0.0);
@@ -925,15 +931,10 @@ fn on_interleaved_folds_a_drift_is_not_relaxation_nor_relaxation_a_drift() {
             named.contains(&"relaxation") && named.contains(&"force_drift"),
             "seed {seed}: {named:?}"
         );
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::ForceDriftNPerS),
-            drift,
-            &format!("seed {seed}: drift"),
-        );
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::RatePerS),
-            0.5,
-            &format!("seed {seed}: rate"),
+        assert_fitted_within_10_percent(
+            &d,
+            seed,
+            &[(Param::ForceDriftNPerS, drift), (Param::RatePerS, 0.5)],
         );
 
         let d = diagnose("ar1", 0.0, 0.0, 0.95);
@@ -1025,20 +1026,14 @@ fn a_stress_relaxation_test_names_relaxation_and_the_power_law() {
             "seed {seed}"
         );
         assert!(d.cv_block.is_some(), "seed {seed}: contiguous folds");
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::N),
-            n,
-            &format!("seed {seed}: n"),
-        );
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::RelaxedFraction),
-            relaxed,
-            &format!("seed {seed}: relaxed fraction"),
-        );
-        assert_within_10_percent(
-            d.final_fit.parameter(Param::RatePerS),
-            1.0 / tau,
-            &format!("seed {seed}: rate"),
+        assert_fitted_within_10_percent(
+            &d,
+            seed,
+            &[
+                (Param::N, n),
+                (Param::RelaxedFraction, relaxed),
+                (Param::RatePerS, 1.0 / tau),
+            ],
         );
     }
 }
