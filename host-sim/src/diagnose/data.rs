@@ -397,6 +397,12 @@ impl Prepared {
         first.saturating_sub(((0.25 / self.dt) as usize).max(5))
     }
 
+    /// Whether every fitting sample from `start` on is in contact (a fit window that never
+    /// leaves contact).
+    pub fn in_contact_from(&self, start: usize) -> bool {
+        self.contact[start..].iter().all(|c| *c)
+    }
+
     /// Mean of the linearly interpolated raw δ over `block` raw samples starting at the
     /// fractional raw index `x0` (clamped to the record) \[m\].
     pub fn raw_block_mean(&self, x0: f64) -> f64 {

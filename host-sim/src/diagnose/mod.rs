@@ -335,7 +335,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // power law, k·n·δ^(n−1)·τ·δ̇ is a depth-dependent damping); on constant-speed strokes
     // it shows only at the reversals. A contact onset in the window (the force rising τ
     // after the contact) or a second frequency identifies it.
-    let in_contact_throughout = (data.fit_start()..data.len()).all(|i| data.contact[i]);
+    let in_contact_throughout = data.in_contact_from(data.fit_start());
     let one_frequency_in_contact = one_speed_each_way && in_contact_throughout;
     let unidentifiable: Vec<Effect> = Effect::ALL
         .into_iter()

@@ -942,14 +942,13 @@ fn name_parameters(
             },
         knob_se(Knob::ContactPosition),
     );
-    let in_contact_throughout = (start..data.len()).all(|i| data.contact[i]);
     mark_undetermined(
         &mut out,
         effects,
         nl,
         scale,
         data.hold_damping,
-        in_contact_throughout,
+        data.in_contact_from(start),
     );
     out
 }
