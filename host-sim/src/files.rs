@@ -170,9 +170,12 @@ fn disagreement(
 ) -> Option<String> {
     let law = &front.law;
     let hammerstein = matches!(online, AnyParameters::Hammerstein { .. });
-    if law.family.has_relaxation() != hammerstein
-        || (hammerstein && law.family != frontend::fit::LawFamily::PowerLawRelaxation)
-    {
+    let like_for_like = if hammerstein {
+        law.family == frontend::fit::LawFamily::PowerLawRelaxation
+    } else {
+        !law.family.has_relaxation()
+    };
+    if !like_for_like {
         return None;
     }
     let (depth, rate) = front.series_depth_and_rate();
