@@ -690,7 +690,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
     // law whose n absorbed a missing mass is n ≈ 1 once the mass is in). Every added
     // effect must still pass the acceptance rule against the final model without it;
     // the least needed one that does not is taken out, and the check repeats. (With one
-    // added effect nothing changed since it was accepted against the baseline.)
+    // added effect nothing changed since it was accepted against the baseline, except a
+    // delay named in a pair: its refit without the partner can fall under half a sample,
+    // which no path names.)
     let mut removed = Vec::new();
     loop {
         let added: Vec<Effect> = effects
@@ -698,7 +700,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             .copied()
             .filter(|e| !baseline.contains(e))
             .collect();
-        if added.len() < 2 {
+        let sub_sample_delay =
+            added.contains(&Effect::TimeDelay) && under_half_a_sample(data, &current);
+        if added.len() < 2 && !sub_sample_delay {
             break;
         }
         let weakest = added
@@ -707,7 +711,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 let mut without = effects.clone();
                 without.remove(&e);
                 let fit = fit(data, &without, &current.nonlinear, &[], Effort::REFINE)?;
-                let kept = score(
+                let mut kept = score(
                     e,
                     None,
                     current.clone(),
@@ -716,6 +720,10 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     duration_s,
                     noise_fraction,
                 );
+                if e == Effect::TimeDelay && sub_sample_delay {
+                    kept.significant = false;
+                    kept.under_half_a_sample = true;
+                }
                 Some((kept, fit))
             })
             .filter(|(kept, _)| !kept.significant)

@@ -421,13 +421,18 @@ pub fn markdown(
     for (i, r) in d.removed.iter().enumerate() {
         let _ = writeln!(
             out,
-            "| {}, backward check | `{}` removed: keeping it gained ΔBIC {:+.1}, held-out {:+.2} % on {}/{} folds, short of the rule | {} | → {:.3} | → {:.0} |",
+            "| {}, backward check | `{}` removed: keeping it gained ΔBIC {:+.1}, held-out {:+.2} % on {}/{} folds, {} | {} | → {:.3} | → {:.0} |",
             d.steps.len() + i + 1,
             r.effect.id(),
             r.kept.delta_bic,
             100.0 * r.kept.cv_improvement,
             r.kept.folds_better,
             super::scoring::FOLDS,
+            if r.kept.under_half_a_sample {
+                "but its delay fell under half a fitting sample, finer than the record resolves"
+            } else {
+                "short of the rule"
+            },
             parameters_text(&r.after),
             r.after.nrmse_percent,
             r.after.bic
