@@ -657,10 +657,12 @@ fn a_delay_is_not_tried_where_one_frequency_in_contact_cannot_show_it() {
 
 /// A delay is named only where the record's contact edges show it. On clean
 /// Kelvin-Voigt taps of the structure generator (seeds 3013 and 3018, where a 2026-11-24
-/// main named a delay that fitted a misfit away from the edges) the delay candidate
-/// passes the information criterion but is refused for its edges, and nothing is named.
-/// (That real delays pass: the hidden-effect sweep's delay rows, and its quick run in
-/// `cargo test`.)
+/// main named a delay that fitted a misfit away from the edges) nothing is named; on
+/// seed 3013 the delay candidate passes the information criterion but is refused for its
+/// edges. (On seed 3018 it did too until the baseline's contact search reached the lower
+/// stair of its staircase, `solver::CONTACT_LEVELS`: NRMSE 0.541 → 0.530 %, and the
+/// delay's gain went with it, ΔBIC −50.5 → +6.4.) (That real delays pass: the
+/// hidden-effect sweep's delay rows, and its quick run in `cargo test`.)
 #[test]
 fn a_delay_the_contact_edges_do_not_show_is_not_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -672,16 +674,23 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
             "seed {seed}: {:?}",
             d.effects_added()
         );
-        let refused = d
+        let mut delays = d
             .steps
             .iter()
             .flat_map(|s| &s.candidates)
             .chain(&d.final_candidates)
-            .any(|c| c.effect == Effect::TimeDelay && c.unseen_at_contact_edges);
-        assert!(
-            refused,
-            "seed {seed}: the delay was not refused for its edges"
-        );
+            .filter(|c| c.effect == Effect::TimeDelay);
+        if seed == 3013 {
+            assert!(
+                delays.any(|c| c.unseen_at_contact_edges),
+                "seed {seed}: the delay was not refused for its edges"
+            );
+        } else {
+            assert!(
+                delays.all(|c| c.delta_bic > -Options::default().min_bic_drop),
+                "seed {seed}: the delay gains on the baseline"
+            );
+        }
     }
 }
 
@@ -734,7 +743,9 @@ fn two_effects_that_pass_only_together_are_named_together() {
 /// fifths put each ramp in one fold and the hold in three, where every damping ties, and
 /// nothing was named (NRMSE 0.94 %); interleaved, each fold holds part of both ramps,
 /// the depth damping and then the power law pass one at a time (0.38 %), with the
-/// exponent within 10 % of the truth.
+/// exponent within 10 % of the truth. (Since the contact grid's finer levels,
+/// `solver::CONTACT_LEVELS`, contiguous folds name both on this seed too, so that
+/// contrast is no longer asserted: the interleaving is what the test holds.)
 #[test]
 fn a_ramp_and_hold_is_judged_on_interleaved_folds() {
     let dir = tempfile::tempdir().unwrap();
@@ -751,18 +762,6 @@ fn a_ramp_and_hold_is_judged_on_interleaved_folds() {
     assert!(d.steps.iter().all(|s| s.jointly_with.is_none()));
     assert!(d.final_fit.nrmse_percent < 0.5 * d.baseline_fit.nrmse_percent);
     assert_within_10_percent(d.final_fit.parameter(Param::N), r.truth.n, "the exponent n");
-    let (_, before) = diagnose_generated_with(
-        dir.path(),
-        Structure::RampHold,
-        MaterialKind::HuntCrossley,
-        3002,
-        &contiguous_folds(),
-    );
-    assert!(
-        before.effects_added().is_empty(),
-        "{:?}",
-        before.effects_added()
-    );
 }
 
 /// A ramp-and-hold passes each depth at one speed each way; its hold, at the deepest

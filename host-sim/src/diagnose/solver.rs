@@ -349,6 +349,11 @@ impl Effort {
 /// Intervals of the grid over the contact position's range after a fit (see [`fit`]).
 const CONTACT_GRID: usize = 16;
 
+/// Finer grids around the best contact position after [`CONTACT_GRID`] (see
+/// `Problem::contact_grid`): each spans two steps of the one before, so two reach
+/// 1/1024 of the range (0.4 µm of a 1 mm record's contact range of ±0.2 mm).
+const CONTACT_LEVELS: usize = 2;
+
 /// Widest contact range a fit that ends at its bound is continued on, as a fraction of
 /// the deepest penetration (see [`fit`]).
 const MAX_CONTACT_SPAN: f64 = 0.8;
@@ -428,7 +433,16 @@ impl Problem<'_> {
     /// contact at the end of its range, an early one, a late one), and a search can end
     /// in the wrong one: where a point of a [`CONTACT_GRID`] over its range, the other
     /// knobs of `nl` (RSS `rss`) held, fits better, the joint Levenberg-Marquardt on
-    /// `knobs` runs again from there. Returns the best of the three.
+    /// `knobs` runs again from there. Around the best point so far, [`CONTACT_LEVELS`]
+    /// finer grids of the same size follow, each spanning two steps of the one before:
+    /// near its minimum the RSS is a staircase in the contact position (it steps where a
+    /// sample crosses the contact point, by λ·v on a Kelvin-Voigt jump), a few
+    /// micrometres per stair and up to 1 % of NRMSE between neighbouring minima, where
+    /// Levenberg-Marquardt stops at the first. Left there, the first minimum the search
+    /// met decided, and a candidate that moved the contact into a lower stair gained as
+    /// if by its effect (a clean Kelvin-Voigt ramp-and-hold was given a plastic set for
+    /// a contact 33 µm deeper, NRMSE 0.641 → 0.633 %, after its start moved 7 µm).
+    /// Returns the best of the points tried.
     fn contact_grid(
         &self,
         nl: Nonlinear,
@@ -436,31 +450,49 @@ impl Problem<'_> {
         knobs: &[Knob],
         iterations: usize,
     ) -> Nonlinear {
-        // (Independent evaluations, in parallel; the minimum taken in grid order.)
-        let on_grid = (0..=CONTACT_GRID)
-            .into_par_iter()
-            .map(|g| {
-                let mut trial = nl;
-                let u = g as f64 / CONTACT_GRID as f64;
-                trial.set(
-                    Knob::ContactPosition,
-                    self.value_at_unit(Knob::ContactPosition, u),
-                );
-                (self.rss(&trial), trial)
-            })
-            .collect::<Vec<_>>()
-            .into_iter()
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        match on_grid {
-            Some((grid_rss, trial)) if grid_rss < rss => {
-                let (again, again_rss) = self.levenberg_marquardt(trial, knobs, iterations);
-                if again_rss <= grid_rss {
-                    again
-                } else {
-                    trial
-                }
+        // One grid of CONTACT_GRID + 1 points from `from` to `to` in unit coordinates
+        // (independent evaluations, in parallel; the minimum taken in grid order).
+        let grid = |from: f64, to: f64| {
+            (0..=CONTACT_GRID)
+                .into_par_iter()
+                .map(|g| {
+                    let mut trial = nl;
+                    let u = from + (to - from) * g as f64 / CONTACT_GRID as f64;
+                    trial.set(
+                        Knob::ContactPosition,
+                        self.value_at_unit(Knob::ContactPosition, u),
+                    );
+                    (self.rss(&trial), trial)
+                })
+                .collect::<Vec<_>>()
+                .into_iter()
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        };
+        let mut best = (rss, nl);
+        // Half the width of the next grid: one step of the one before.
+        let mut half = 1.0 / CONTACT_GRID as f64;
+        for level in 0..=CONTACT_LEVELS {
+            let on_grid = if level == 0 {
+                grid(0.0, 1.0)
+            } else {
+                let u = self.to_unit(Knob::ContactPosition, best.1.contact_m);
+                let g = grid(u - half, u + half);
+                half *= 2.0 / CONTACT_GRID as f64;
+                g
+            };
+            match on_grid {
+                Some(g) if g.0 < best.0 => best = g,
+                _ => {}
             }
-            _ => nl,
+        }
+        if best.0 >= rss {
+            return nl;
+        }
+        let (again, again_rss) = self.levenberg_marquardt(best.1, knobs, iterations);
+        if again_rss <= best.0 {
+            again
+        } else {
+            best.1
         }
     }
 
