@@ -505,12 +505,13 @@ fn diagnose_one(
     for r in &d.removed {
         let _ = writeln!(
             text,
-            "  backward check: - {}  NRMSE -> {:.3} % (keeping it: ΔBIC {:+.0}, held-out {:+.2} %, {} folds better: short of the acceptance rule)",
+            "  backward check: - {}  NRMSE -> {:.3} % (keeping it: ΔBIC {:+.0}, held-out {:+.2} %, {} folds better: {})",
             r.effect.id(),
             r.after.nrmse_percent,
             r.kept.delta_bic,
             100.0 * r.kept.cv_improvement,
-            r.kept.folds_better
+            r.kept.folds_better,
+            r.reason()
         );
     }
     if !d.unidentifiable.is_empty() {

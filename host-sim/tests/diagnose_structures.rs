@@ -674,20 +674,24 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
             "seed {seed}: {:?}",
             d.effects_added()
         );
-        let mut delays = d
+        let delays: Vec<_> = d
             .steps
             .iter()
             .flat_map(|s| &s.candidates)
             .chain(&d.final_candidates)
-            .filter(|c| c.effect == Effect::TimeDelay);
+            .filter(|c| c.effect == Effect::TimeDelay)
+            .collect();
+        assert!(!delays.is_empty(), "seed {seed}: no delay was tried");
         if seed == 3013 {
             assert!(
-                delays.any(|c| c.unseen_at_contact_edges),
+                delays.iter().any(|c| c.unseen_at_contact_edges),
                 "seed {seed}: the delay was not refused for its edges"
             );
         } else {
             assert!(
-                delays.all(|c| c.delta_bic > -Options::default().min_bic_drop),
+                delays
+                    .iter()
+                    .all(|c| c.delta_bic > -Options::default().min_bic_drop),
                 "seed {seed}: the delay gains on the baseline"
             );
         }

@@ -215,10 +215,22 @@ pub struct Removal {
     /// The effect.
     pub effect: Effect,
     /// What keeping it scored against the model without it: its ΔBIC, held-out gain and
-    /// folds (it failed the acceptance rule).
+    /// folds (it failed the acceptance rule, or it is a delay under half a fitting
+    /// sample: `kept.under_half_a_sample`).
     pub kept: Candidate,
     /// The model without it (jointly refitted).
     pub after: Fit,
+}
+
+impl Removal {
+    /// Why it was taken out, in words (the report, the summary and the JSON).
+    pub fn reason(&self) -> &'static str {
+        if self.kept.under_half_a_sample {
+            "its delay fell under half a fitting sample, finer than the record resolves"
+        } else {
+            "short of the acceptance rule"
+        }
+    }
 }
 
 /// The workflow's result.
@@ -234,7 +246,7 @@ pub struct Diagnosis {
     /// Candidates of the last, unsuccessful round (why the loop stopped).
     pub final_candidates: Vec<Candidate>,
     /// Added effects taken out again by the backward check, in order: each no longer
-    /// passed the acceptance rule against the final model without it.
+    /// passed the acceptance rule against the final model without it ([`Removal::reason`]).
     pub removed: Vec<Removal>,
     /// The final model.
     pub final_fit: Fit,
@@ -689,10 +701,11 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
     // Backward check: an effect added later can take over an earlier one's role (a power
     // law whose n absorbed a missing mass is n ≈ 1 once the mass is in). Every added
     // effect must still pass the acceptance rule against the final model without it;
-    // the least needed one that does not is taken out, and the check repeats. (With one
-    // added effect nothing changed since it was accepted against the baseline, except a
-    // delay named in a pair: its refit without the partner can fall under half a sample,
-    // which no path names.)
+    // the least needed one that does not is taken out, and the check repeats. (A lone
+    // added effect is not re-scored: accepted against the baseline, or the survivor of a
+    // pair or of a removal, it is kept, except a delay whose refit fell under half a
+    // sample, which no path names. Re-scoring every survivor was not tried: it moves the
+    // sweeps, and it would need their run.)
     let mut removed = Vec::new();
     loop {
         let added: Vec<Effect> = effects

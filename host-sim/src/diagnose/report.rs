@@ -116,6 +116,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
             "delta_bic_of_keeping": r.kept.delta_bic,
             "cv_improvement_of_keeping": r.kept.cv_improvement,
             "folds_better_of_keeping": r.kept.folds_better,
+            "reason": r.reason(),
             "nrmse_percent_after": r.after.nrmse_percent,
         })).collect::<Vec<_>>(),
         "final_model": d.final_model(),
@@ -428,11 +429,7 @@ pub fn markdown(
             100.0 * r.kept.cv_improvement,
             r.kept.folds_better,
             super::scoring::FOLDS,
-            if r.kept.under_half_a_sample {
-                "but its delay fell under half a fitting sample, finer than the record resolves"
-            } else {
-                "short of the rule"
-            },
+            r.reason(),
             parameters_text(&r.after),
             r.after.nrmse_percent,
             r.after.bic
