@@ -580,10 +580,10 @@ impl<'a> Problem<'a> {
     }
 
     /// [`Problem::converging_free_points`]: from the solution `first` on every point, the
-    /// points where the law pulls refitted as free until their set (told by its size and
-    /// index sum) stops changing, at most `free_rounds` times; the round whose law,
-    /// clipped at zero, fits best, with that RSS (judged on the set it was fitted on, a
-    /// round can look better than it is: its law positive on points that set held free).
+    /// points where the law pulls refitted as free until their set stops changing, at
+    /// most `free_rounds` times; the round whose law, clipped at zero, fits best, with
+    /// that RSS (judged on the set it was fitted on, a round can look better than it is:
+    /// its law positive on points that set held free).
     fn converged_free_points(
         &self,
         g: &[f64],
@@ -592,29 +592,28 @@ impl<'a> Problem<'a> {
         first: (Vector3<f64>, f64),
     ) -> Option<(Vector3<f64>, f64)> {
         let fixed = self.fixed_offset();
+        // The points where the law of `theta` pulls, and its clipped RSS.
         let clipped = |theta: &Vector3<f64>| {
             let (a, b) = coefficients(mask, theta);
             let f0 = if fixed.is_some() { 0.0 } else { theta[0] };
-            let (mut set, mut rss) = ((0usize, 0usize), 0.0);
-            for i in 0..g.len() {
-                let law = a * g[i] + b * h[i];
-                if g[i] > 0.0 && law < 0.0 {
-                    set = (set.0 + 1, set.1 + i);
-                }
-                let r = self.f[i] - fixed.unwrap_or(0.0) - f0 - law.max(0.0);
-                rss += r * r;
-            }
-            (set, rss)
+            let mut rss = 0.0;
+            let pulls: Vec<bool> = (0..g.len())
+                .map(|i| {
+                    let law = a * g[i] + b * h[i];
+                    let r = self.f[i] - fixed.unwrap_or(0.0) - f0 - law.max(0.0);
+                    rss += r * r;
+                    g[i] > 0.0 && law < 0.0
+                })
+                .collect();
+            (pulls, rss)
         };
         let (mut set, first_rss) = clipped(&first.0);
-        if set == (0, 0) {
+        if !set.contains(&true) {
             return Some(first);
         }
-        let (mut result, mut best) = (first, (first.0, first_rss));
+        let mut best = (first.0, first_rss);
         for _ in 0..self.free_rounds {
-            let (a, b) = coefficients(mask, &result.0);
-            let free = |i: usize| g[i] > 0.0 && a * g[i] + b * h[i] < 0.0;
-            result = self.solve_sums(&self.normal_sums(g, h, free), mask)?;
+            let result = self.solve_sums(&self.normal_sums(g, h, |i| set[i]), mask)?;
             let (now, rss) = clipped(&result.0);
             if rss < best.1 {
                 best = (result.0, rss);

@@ -339,15 +339,17 @@ pub fn analyse_oriented(
     let mut free_fit = free_fit;
     let mut series = series;
     let mut loading_only = None;
+    let mut converged_free_points = false;
     if !family.has_relaxation() && misfits(&series, sign, &free_fit, noise_n) {
         // First the unilateral contact to convergence: a heavily damped law leaves the
         // surface for the whole retract, which one round of freeing does not see.
         if let Some(fit) = Problem::new(&series, sign, family, free_offset)
             .converging_free_points()
             .fit()
-            .filter(|f| f.rss < free_fit.rss && !misfits(&series, sign, f, noise_n))
+            .filter(|f| !misfits(&series, sign, f, noise_n))
         {
             free_fit = fit;
+            converged_free_points = true;
         }
     }
     if !family.has_relaxation() && misfits(&series, sign, &free_fit, noise_n) {
@@ -383,6 +385,8 @@ pub fn analyse_oriented(
             let problem = Problem::new(&series, sign, family, offset_term);
             if loading_only.is_some() {
                 problem.without_damping()
+            } else if converged_free_points {
+                problem.converging_free_points()
             } else {
                 problem
             }
@@ -1111,16 +1115,34 @@ mod tests {
         let front = analyse(&t, &x, &f, LawFamily::KelvinVoigt, &Options::default()).unwrap();
         assert!(!front.loading_only, "{:?}", front.notes);
         assert!(front.offset_identifiable(), "{:?}", front.offset);
-        assert!(matches!(front.contact, ContactSource::Onsets { contacts: 4 }));
+        assert!(matches!(
+            front.contact,
+            ContactSource::Onsets { contacts: 4 }
+        ));
         assert!(
             (front.law.stiffness / kappa - 1.0).abs() < 0.05
                 && (front.law.damping() / lambda - 1.0).abs() < 0.05,
             "{:?}",
             front.law
         );
-        assert!(front.contact_position_m.abs() < 20e-6, "{}", front.contact_position_m);
+        assert!(
+            front.contact_position_m.abs() < 20e-6,
+            "{}",
+            front.contact_position_m
+        );
+        // With the offset given, the law is refitted with it held: the same convergence.
+        let given = Options {
+            force_offset_n: Some(0.21),
+            ..Options::default()
+        };
+        let held = analyse(&t, &x, &f, LawFamily::KelvinVoigt, &given).unwrap();
+        assert!(
+            (held.law.stiffness / kappa - 1.0).abs() < 0.05
+                && (held.law.damping() / lambda - 1.0).abs() < 0.05,
+            "{:?}",
+            held.law
+        );
     }
-
 
     #[test]
     fn a_constant_force_and_a_force_without_contact_are_errors() {
