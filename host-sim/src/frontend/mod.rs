@@ -1119,12 +1119,14 @@ mod tests {
             front.contact,
             ContactSource::Onsets { contacts: 4 }
         ));
-        assert!(
-            (front.law.stiffness / kappa - 1.0).abs() < 0.05
-                && (front.law.damping() / lambda - 1.0).abs() < 0.05,
-            "{:?}",
-            front.law
-        );
+        let within_5_percent = |law: &LawFit| {
+            assert!(
+                (law.stiffness / kappa - 1.0).abs() < 0.05
+                    && (law.damping() / lambda - 1.0).abs() < 0.05,
+                "{law:?}"
+            );
+        };
+        within_5_percent(&front.law);
         assert!(
             front.contact_position_m.abs() < 20e-6,
             "{}",
@@ -1136,12 +1138,7 @@ mod tests {
             ..Options::default()
         };
         let held = analyse(&t, &x, &f, LawFamily::KelvinVoigt, &given).unwrap();
-        assert!(
-            (held.law.stiffness / kappa - 1.0).abs() < 0.05
-                && (held.law.damping() / lambda - 1.0).abs() < 0.05,
-            "{:?}",
-            held.law
-        );
+        within_5_percent(&held.law);
     }
 
     #[test]
