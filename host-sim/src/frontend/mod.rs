@@ -340,7 +340,8 @@ pub fn analyse_oriented(
     let mut series = series;
     let mut loading_only = None;
     let mut converged_free_points = false;
-    if !family.has_relaxation() && misfits(&series, sign, &free_fit, noise_n) {
+    let mut misfit = !family.has_relaxation() && misfits(&series, sign, &free_fit, noise_n);
+    if misfit {
         // First the unilateral contact to convergence: a heavily damped law leaves the
         // surface for the whole retract, which one round of freeing does not see.
         if let Some(fit) = Problem::new(&series, sign, family, free_offset)
@@ -350,9 +351,10 @@ pub fn analyse_oriented(
         {
             free_fit = fit;
             converged_free_points = true;
+            misfit = false;
         }
     }
-    if !family.has_relaxation() && misfits(&series, sign, &free_fit, noise_n) {
+    if misfit {
         let keep = loading_curve(&series, sign);
         let subset = series.subset(&keep);
         if let Some(fit) = Problem::new(&subset, sign, family, free_offset)
