@@ -802,7 +802,7 @@ fn describe(
             ));
         }
     }
-    let total = front.series.len() * front.series.block;
+    let total = (front.series.len() + front.series.kinks) * front.series.block;
     match (&front.offset, offset_verdict) {
         (
             OffsetSource::FreeSpace {
@@ -841,12 +841,18 @@ fn describe(
     let law = family.describe();
     front.notes.push(format!(
         "contact point {:.6e} m on the file's position axis, from the joint least-squares fit of offset, \
-         contact point and the {law} law to all {} samples ({} points, one per {} samples, each the mean of {}); {}",
+         contact point and the {law} law to all {} samples ({} points, one per {} samples, each the mean of {}{}); {}",
         front.contact_position_m,
         total,
         front.series.len(),
         front.series.block,
         front.series.averaged,
+        match front.series.kinks {
+            0 => String::new(),
+            k => format!(
+                "; {k} left out, whose rate reads across a kink of the motion, where it is not defined"
+            ),
+        },
         match front.contact {
             ContactSource::Onsets { contacts } =>
                 format!("the record shows {contacts} contact onset(s)"),

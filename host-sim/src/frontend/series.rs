@@ -7,10 +7,27 @@
 /// each.
 pub const MAX_POINTS: usize = 6000;
 
-/// Half-widths \[s\] tried for the symmetric difference that estimates the rate, shortest
-/// first: 4 ms follows a 10 Hz tap; a slow indentation with nanometre jitter needs up to
-/// 0.5 s before its rate is more than noise.
+/// Half-widths \[s\] tried for the symmetric difference that estimates the rate, after
+/// one sample (tried first): 4 ms follows a 10 Hz tap; a slow indentation with nanometre
+/// jitter needs up to 0.5 s before its rate is more than noise. A position without noise
+/// (a commanded or simulated one) takes one sample: a wider window smears the corners of a
+/// ramp over its width, and a Kelvin-Voigt law turns the smeared rate into a force error
+/// of λ·v there (a ramp-and-hold at 83 mm/s: 17 N on each of 8 samples, which moved the
+/// contact point 0.4 mm).
 pub const RATE_HALF_WINDOWS_S: [f64; 7] = [4.0e-3, 10.0e-3, 25.0e-3, 50.0e-3, 0.1, 0.25, 0.5];
+
+/// Largest change of the native rate over one sample, as a fraction of the record's
+/// 99.9th-percentile speed, that is still motion: a larger one is a kink (a ramp starting
+/// or stopping within a sample), where the rate is not defined and the symmetric difference
+/// gives a value between the two sides that neither side's force follows. Points whose rate
+/// reads across a kink are left out of the fit ([`Series::kinks`]). A 10 Hz tap sampled at
+/// 1 kHz changes its rate by 6 % of its peak per sample.
+pub const KINK_FRACTION: f64 = 0.2;
+
+/// Largest share of the points a kink may remove: beyond it the motion is not made of
+/// smooth pieces at this sample rate (a tap sampled a few times per cycle) and every point
+/// is kept.
+pub const MAX_KINK_SHARE: f64 = 0.02;
 
 /// Largest rate noise the chosen half-width may leave, as a fraction of the record's
 /// 99.9th-percentile speed.
@@ -39,6 +56,9 @@ pub struct Series {
     /// Native samples averaged into each point (≤ `block`): the force noise of a point
     /// is the native noise / √`averaged`.
     pub averaged: usize,
+    /// Points left out because their rate reads across a kink of the motion
+    /// ([`KINK_FRACTION`]).
+    pub kinks: usize,
 }
 
 impl Series {
@@ -65,14 +85,23 @@ impl Series {
         let time: Vec<f64> = starts.iter().map(|&s| mean(time_s, s)).collect();
         let position: Vec<f64> = starts.iter().map(|&s| mean(position_m, s)).collect();
         let force: Vec<f64> = starts.iter().map(|&s| mean(force_n, s)).collect();
-        let rate = native_rate(&time_s[..n], &position_m[..n], &starts, averaged);
-        Series {
+        let (rate, k) = native_rate(&time_s[..n], &position_m[..n], &starts, averaged);
+        let keep = off_kinks(&time_s[..n], &position_m[..n], &starts, averaged, k, &rate);
+        let series = Series {
             time_s: time,
             position_m: position,
             rate_m_per_s: rate,
             force_n: force,
             block,
             averaged,
+            kinks: 0,
+        };
+        match keep {
+            Some(keep) => Series {
+                kinks: keep.iter().filter(|k| !**k).count(),
+                ..series.subset(&keep)
+            },
+            None => series,
         }
     }
 
@@ -92,6 +121,7 @@ impl Series {
             force_n: pick(&self.force_n),
             block: self.block,
             averaged: self.averaged,
+            kinks: self.kinks,
         }
     }
 
@@ -146,17 +176,22 @@ fn jitter(b: usize, span: usize) -> usize {
 
 /// The rate of each point: the native symmetric difference of [`symmetric_rate`] averaged
 /// over the point's run, with the half-width chosen as in [`rate_estimate`] (σ_x from the
-/// native position's second differences, the 99.9th-percentile speed over the points).
-fn native_rate(time_s: &[f64], position: &[f64], starts: &[usize], averaged: usize) -> Vec<f64> {
+/// native position's second differences, the 99.9th-percentile speed over the points), and
+/// that half-width in samples.
+fn native_rate(
+    time_s: &[f64],
+    position: &[f64],
+    starts: &[usize],
+    averaged: usize,
+) -> (Vec<f64>, usize) {
     let n = time_s.len();
     if n < 2 {
-        return vec![0.0; starts.len()];
+        return (vec![0.0; starts.len()], 1);
     }
     let sigma_x = crate::setup::noise_level(position);
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
-    let mut last = Vec::new();
-    for &h in &RATE_HALF_WINDOWS_S {
-        let k = ((h / dt).round() as usize).max(1);
+    let mut last = (Vec::new(), 1);
+    for k in half_windows(dt) {
         let at = |i: usize| symmetric_difference(time_s, position, i, k);
         let rate: Vec<f64> = starts
             .iter()
@@ -166,37 +201,110 @@ fn native_rate(time_s: &[f64], position: &[f64], starts: &[usize], averaged: usi
                 run.map(at).sum::<f64>() / len
             })
             .collect();
-        let mut speeds: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
-        let q = ((speeds.len().max(1) - 1) as f64 * 0.999) as usize;
-        let fast = if speeds.is_empty() {
-            0.0
-        } else {
-            *speeds.select_nth_unstable_by(q, f64::total_cmp).1
-        };
-        if sigma_x / (std::f64::consts::SQRT_2 * h) <= MAX_RATE_NOISE * fast {
-            return rate;
+        let fast = fast_speed(&rate);
+        if quiet_enough(sigma_x, k as f64 * dt, fast) {
+            return (rate, k);
         }
-        last = rate;
+        last = (rate, k);
     }
     last
 }
 
-/// The rate of `position` by the shortest symmetric difference of [`RATE_HALF_WINDOWS_S`]
-/// whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
+/// Half-widths in samples to try at sample interval `dt` \[s\], shortest first: one
+/// sample, then [`RATE_HALF_WINDOWS_S`] (each at least one sample longer than the last).
+fn half_windows(dt: f64) -> Vec<usize> {
+    let mut out = vec![1];
+    for h in RATE_HALF_WINDOWS_S {
+        let k = (h / dt).round() as usize;
+        if k > *out.last().unwrap_or(&0) {
+            out.push(k);
+        }
+    }
+    out
+}
+
+/// The 99.9th-percentile speed of `rate` (0 when empty).
+fn fast_speed(rate: &[f64]) -> f64 {
+    let mut speeds: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
+    let q = ((speeds.len().max(1) - 1) as f64 * 0.999) as usize;
+    if speeds.is_empty() {
+        0.0
+    } else {
+        *speeds.select_nth_unstable_by(q, f64::total_cmp).1
+    }
+}
+
+/// Whether a symmetric difference of half-width `h` \[s\] on a position of noise
+/// `sigma_x` has a noise (σ_x/(√2·h)) within [`MAX_RATE_NOISE`] of the speed `fast`.
+fn quiet_enough(sigma_x: f64, h: f64, fast: f64) -> bool {
+    sigma_x / (std::f64::consts::SQRT_2 * h) <= MAX_RATE_NOISE * fast
+}
+
+/// Which points to keep: `None` when no point's rate reads across a kink of the motion, or
+/// when kinks would remove more than [`MAX_KINK_SHARE`] of them; else `false` for the
+/// points whose rate (the mean over the run from each start, `averaged` samples, of
+/// symmetric differences of half-width `k` samples) spans a native sample whose rate
+/// changes by more than [`KINK_FRACTION`] of the 99.9th-percentile point speed and by more
+/// than 8 deviations of that change's noise (σ_x·√6 / Δt, σ_x from second differences).
+fn off_kinks(
+    time_s: &[f64],
+    position: &[f64],
+    starts: &[usize],
+    averaged: usize,
+    k: usize,
+    rate: &[f64],
+) -> Option<Vec<bool>> {
+    let n = time_s.len();
+    if n < 3 {
+        return None;
+    }
+    let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
+    let noise = 8.0 * crate::setup::noise_level(position) * 6f64.sqrt() / dt;
+    let limit = (KINK_FRACTION * fast_speed(rate)).max(noise);
+    // Kinks counted up to each sample: the difference of the rates on either side of i.
+    let mut kinks = vec![0usize; n + 1];
+    for i in 0..n {
+        let kink = i > 0 && i + 1 < n && {
+            let after = (position[i + 1] - position[i]) / (time_s[i + 1] - time_s[i]);
+            let before = (position[i] - position[i - 1]) / (time_s[i] - time_s[i - 1]);
+            (after - before).abs() > limit
+        };
+        kinks[i + 1] = kinks[i] + usize::from(kink);
+    }
+    if kinks[n] == 0 {
+        return None;
+    }
+    // The symmetric difference at j reads x[j − k] and x[j + k]: a kink strictly between
+    // them bends it. A run from s of `averaged` samples: kinks in s − k + 1 ..= s + m + k − 2.
+    let keep: Vec<bool> = starts
+        .iter()
+        .map(|&s| {
+            let lo = (s + 1).saturating_sub(k);
+            let hi = (s + averaged + k - 1).min(n);
+            kinks[hi] == kinks[lo.min(hi)]
+        })
+        .collect();
+    let dropped = keep.iter().filter(|k| !**k).count();
+    (dropped > 0 && dropped as f64 <= MAX_KINK_SHARE * keep.len() as f64).then_some(keep)
+}
+
+/// The rate of `position` by the shortest symmetric difference (one sample, then
+/// [`RATE_HALF_WINDOWS_S`]) whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
 /// [`MAX_RATE_NOISE`] of the 99.9th-percentile speed it gives (not the 99th: the ramps of
 /// a ramp-and-hold are 1-2 % of its samples).
 pub fn rate_estimate(time_s: &[f64], position: &[f64]) -> Vec<f64> {
+    let n = time_s.len();
+    if n < 2 {
+        return vec![0.0; n];
+    }
     let sigma_x = crate::setup::noise_level(position);
+    let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let mut last = Vec::new();
-    for &h in &RATE_HALF_WINDOWS_S {
-        let rate = symmetric_rate(time_s, position, h);
-        let mut speeds: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
-        speeds.sort_by(f64::total_cmp);
-        let fast = speeds
-            .get(((speeds.len().max(1) - 1) as f64 * 0.999) as usize)
-            .copied()
-            .unwrap_or(0.0);
-        if sigma_x / (std::f64::consts::SQRT_2 * h) <= MAX_RATE_NOISE * fast {
+    for k in half_windows(dt) {
+        let rate: Vec<f64> = (0..n)
+            .map(|i| symmetric_difference(time_s, position, i, k))
+            .collect();
+        if quiet_enough(sigma_x, k as f64 * dt, fast_speed(&rate)) {
             return rate;
         }
         last = rate;
