@@ -206,6 +206,42 @@ fn elastic_shape(family: LawFamily, depth: f64, shape: f64) -> f64 {
     }
 }
 
+/// A point's depth at a contact point for the laws with an exponent: out of contact, in
+/// contact at ln δ, or a run straddling the contact point, with ln of its deepest depth b
+/// and the share of the run in contact ([`straddle`]).
+#[derive(Debug, Clone, Copy)]
+enum LogDepth {
+    Out,
+    In(f64),
+    Straddling { ln_b: f64, share: f64 },
+}
+
+/// For a point at mean depth `depth` whose run spreads uniformly ±`half` around it: its
+/// deepest depth b and the share of the run in contact, b/(2·half), when the run straddles
+/// the contact point (`None` when it lies wholly on one side).
+fn straddle(depth: f64, half: f64) -> Option<(f64, f64)> {
+    let b = depth + half;
+    (depth - half < 0.0 && b > 0.0).then(|| (b, b / (2.0 * half)))
+}
+
+/// The mean of [`elastic_shape`] over depths spread uniformly on \[0, b\]: b/2 for the
+/// linear laws, bⁿ/(n + 1) for the power laws, ((e^{βb} − 1)/β − b)/(β·b) for the
+/// exponential one (b/2 as β·b → 0).
+fn mean_elastic_shape(family: LawFamily, b: f64, shape: f64) -> f64 {
+    if family.has_exponent() {
+        laws::power_law(b, shape) / (shape + 1.0)
+    } else if family == LawFamily::Exponential {
+        let x = shape * b;
+        if x.abs() < 1e-6 {
+            0.5 * b * (1.0 + x / 3.0)
+        } else {
+            (x.exp_m1() / shape - b) / x
+        }
+    } else {
+        0.5 * b
+    }
+}
+
 /// The relaxing state of one mode driven by `g` (time order): z' = −ν·z + dg/dt, exact for
 /// g linear within each step (the QLV model's own step, [`laws::relaxing_step`]).
 pub fn relaxing(g: &[f64], time_s: &[f64], rate_per_s: f64) -> Vec<f64> {
@@ -265,6 +301,11 @@ pub struct Problem<'a> {
     rate: f64,
     /// u/L, F/S, δ̇/(L·R) per point, and time.
     u: Vec<f64>,
+    /// Half the spread of each point's run ([`Series::spread_m`]) / L.
+    w: Vec<f64>,
+    /// How many points each point stands for in the sums (1, except in the coarse view's
+    /// thinned quiet points: [`Problem::coarse`]).
+    weight: Vec<f64>,
     f: Vec<f64>,
     v: Vec<f64>,
     t: Vec<f64>,
@@ -281,16 +322,17 @@ fn scaled_fixed_offset(offset: OffsetTerm, force: f64) -> Option<f64> {
     }
 }
 
-/// Σ1, Σy and Σy² over the points, y = f − the fixed offset (scaled), the ones counted
-/// only with a free offset; summed in point order, as [`Problem::normal_sums`] did.
-fn y_sums(f: &[f64], fixed: Option<f64>) -> [f64; 3] {
+/// Σw, Σw·y and Σw·y² over the points of weights w, y = f − the fixed offset (scaled),
+/// the ones counted only with a free offset; summed in point order, as
+/// [`Problem::normal_sums`] did.
+fn y_sums(f: &[f64], weight: &[f64], fixed: Option<f64>) -> [f64; 3] {
     let one = if fixed.is_some() { 0.0 } else { 1.0 };
     let mut s = [0.0; 3];
-    for fi in f {
+    for (fi, w) in f.iter().zip(weight) {
         let y = fi - fixed.unwrap_or(0.0);
-        s[0] += one;
-        s[1] += one * y;
-        s[2] += y * y;
+        s[0] += one * w;
+        s[1] += one * w * y;
+        s[2] += w * y * y;
     }
     s
 }
@@ -389,7 +431,9 @@ impl<'a> Problem<'a> {
             force,
             rate,
             u: x.iter().map(|x| sign * x / length).collect(),
-            y_sums: y_sums(&f, fixed),
+            w: series.spread_m.iter().map(|w| 0.5 * w / length).collect(),
+            weight: vec![1.0; f.len()],
+            y_sums: y_sums(&f, &vec![1.0; f.len()], fixed),
             f,
             v: series
                 .rate_m_per_s
@@ -430,27 +474,57 @@ impl<'a> Problem<'a> {
     }
 
     /// ln δ of every point at the scaled contact point `uc` for the laws with an exponent
-    /// (`None` out of contact; empty for the linear laws): computed once per contact
-    /// point, shared by every exponent the search tries there.
-    fn depth_logs(&self, uc: f64) -> Vec<Option<f64>> {
-        if self.family.has_exponent() {
-            self.u.iter().map(|u| laws::ln_depth(u - uc)).collect()
-        } else {
-            Vec::new()
+    /// (empty for the others; see [`LogDepth`]): computed once per contact point, shared by
+    /// every exponent the search tries there.
+    fn depth_logs(&self, uc: f64) -> Vec<LogDepth> {
+        if !self.family.has_exponent() {
+            return Vec::new();
         }
+        self.u
+            .iter()
+            .zip(&self.w)
+            .map(|(u, w)| match straddle(u - uc, *w) {
+                Some((b, share)) => LogDepth::Straddling {
+                    ln_b: b.ln(),
+                    share,
+                },
+                None => laws::ln_depth(u - uc).map_or(LogDepth::Out, LogDepth::In),
+            })
+            .collect()
     }
 
     /// Columns (g, h) at `knobs`, in scaled units; `logs` from [`Problem::depth_logs`] at
-    /// `knobs.uc`.
-    fn columns(&self, logs: &[Option<f64>], k: Knobs) -> (Vec<f64>, Vec<f64>) {
+    /// `knobs.uc`. A point whose run straddles the contact point gets the run's mean of
+    /// each column (its positions spread uniformly, its rate the run's): the mean force
+    /// it was measured as.
+    fn columns(&self, logs: &[LogDepth], k: Knobs) -> (Vec<f64>, Vec<f64>) {
+        // The share of each point's run in contact (1 or 0 unless it straddles).
+        let mut share = vec![1.0; self.u.len()];
         let g: Vec<f64> = if self.family.has_exponent() {
             logs.iter()
-                .map(|l| laws::power_law_of_ln(*l, k.n))
+                .zip(share.iter_mut())
+                .map(|(l, s)| match *l {
+                    LogDepth::Out => 0.0,
+                    LogDepth::In(l) => laws::power_law_of_ln(Some(l), k.n),
+                    // (1/2w)·∫₀ᵇ δⁿ dδ = bⁿ·(b/2w)/(n + 1)
+                    LogDepth::Straddling { ln_b, share } => {
+                        *s = share;
+                        laws::power_law_of_ln(Some(ln_b), k.n) * share / (k.n + 1.0)
+                    }
+                })
                 .collect()
         } else {
             self.u
                 .iter()
-                .map(|u| elastic_shape(self.family, u - k.uc, k.n))
+                .zip(&self.w)
+                .zip(share.iter_mut())
+                .map(|((u, w), s)| match straddle(u - k.uc, *w) {
+                    Some((b, part)) => {
+                        *s = part;
+                        mean_elastic_shape(self.family, b, k.n) * part
+                    }
+                    None => elastic_shape(self.family, u - k.uc, k.n),
+                })
                 .collect()
         };
         let h = match self.family {
@@ -458,7 +532,8 @@ impl<'a> Problem<'a> {
             LawFamily::KelvinVoigt | LawFamily::Exponential => g
                 .iter()
                 .zip(&self.v)
-                .map(|(g, v)| if *g > 0.0 { *v } else { 0.0 })
+                .zip(&share)
+                .map(|((g, v), s)| if *g > 0.0 { v * s } else { 0.0 })
                 .collect(),
             LawFamily::HuntCrossley => g.iter().zip(&self.v).map(|(g, v)| g * v).collect(),
             // (Not gated by contact: see the free points of `Problem::solve_columns`.)
@@ -478,7 +553,7 @@ impl<'a> Problem<'a> {
     }
 
     /// [`Problem::solve`] with the contact point's `logs` already computed.
-    fn solve_at(&self, logs: &[Option<f64>], k: Knobs) -> Option<(Vector3<f64>, f64)> {
+    fn solve_at(&self, logs: &[LogDepth], k: Knobs) -> Option<(Vector3<f64>, f64)> {
         let (g, h) = self.columns(logs, k);
         let sums = self.normal_sums(&g, &h, |_| false);
         let full = self.solve_columns(&g, &h, &sums, [true, true])?;
@@ -514,13 +589,14 @@ impl<'a> Problem<'a> {
                 continue;
             }
             let y = self.f[i] - fixed.unwrap_or(0.0);
-            s[1] += one * gi;
-            s[2] += one * hi;
-            s[3] += gi * gi;
-            s[4] += gi * hi;
-            s[5] += hi * hi;
-            s[7] += gi * y;
-            s[8] += hi * y;
+            let (wg, wh) = (self.weight[i] * gi, self.weight[i] * hi);
+            s[1] += one * wg;
+            s[2] += one * wh;
+            s[3] += wg * gi;
+            s[4] += wg * hi;
+            s[5] += wh * hi;
+            s[7] += wg * y;
+            s[8] += wh * y;
         }
         s
     }
@@ -601,7 +677,7 @@ impl<'a> Problem<'a> {
                 .map(|i| {
                     let law = a * g[i] + b * h[i];
                     let r = self.f[i] - fixed.unwrap_or(0.0) - f0 - law.max(0.0);
-                    rss += r * r;
+                    rss += self.weight[i] * r * r;
                     g[i] > 0.0 && law < 0.0
                 })
                 .collect();
@@ -665,8 +741,8 @@ impl<'a> Problem<'a> {
         let f0 = self.fixed_offset().unwrap_or(result.0[0]);
         let (mut pull, mut record) = (0.0, 0.0);
         for i in (0..g.len()).filter(|&i| free[i]) {
-            pull += a * g[i] + b * h[i];
-            record += self.f[i] - f0;
+            pull += self.weight[i] * (a * g[i] + b * h[i]);
+            record += self.weight[i] * (self.f[i] - f0);
         }
         Some((record >= 0.5 * pull).then_some(result))
     }
@@ -679,7 +755,7 @@ impl<'a> Problem<'a> {
     }
 
     /// [`Problem::rss`] with the contact point's `logs` already computed.
-    fn rss_at(&self, logs: &[Option<f64>], k: Knobs) -> f64 {
+    fn rss_at(&self, logs: &[LogDepth], k: Knobs) -> f64 {
         match self.solve_at(logs, k) {
             Some((theta, rss)) if theta[1] > 0.0 => rss,
             _ => f64::INFINITY,
@@ -724,9 +800,59 @@ impl<'a> Problem<'a> {
         (0.1 / span, 0.1 / dt)
     }
 
-    /// The same problem on every `stride`-th point (a coarse view for the grid search).
-    fn thinned(&self, stride: usize) -> Problem<'a> {
-        let pick = |v: &[f64]| v.iter().step_by(stride).copied().collect();
+    /// The coarse view for the grid search, about [`COARSE_POINTS`] points: every moving
+    /// point (faster than [`crate::phases::LOADING_SPEED_FRACTION`] of the 99.9th-percentile
+    /// speed) where they are at most half of that, the others thinned to fill the rest,
+    /// each weighted by the quiet points it stands for; else every `stride`-th point. A
+    /// brief ramp into a hold is a few dozen of a record's points and the only ones that
+    /// place the contact point: thinned with the hold, the coarse RSS saw a few of them,
+    /// was flat over a millimetre, and its minimum fell anywhere there (a Kelvin-Voigt
+    /// ramp-and-hold at 123 mm/s: contact 0.17 mm deep, κ +4.5 %, reported identifiable).
+    fn coarse(&self) -> Problem<'a> {
+        let n = self.u.len();
+        let stride = n.div_ceil(COARSE_POINTS).max(1);
+        let every = |stride: usize| {
+            let picked: Vec<usize> = (0..n).step_by(stride).collect();
+            let weight = vec![1.0; picked.len()];
+            self.thinned(&picked, weight)
+        };
+        if stride == 1 {
+            return every(1);
+        }
+        let mut speeds: Vec<f64> = self.v.iter().map(|v| v.abs()).collect();
+        let q = ((n - 1) as f64 * 0.999) as usize;
+        let fast = *speeds.select_nth_unstable_by(q, f64::total_cmp).1;
+        let moving: Vec<bool> = self
+            .v
+            .iter()
+            .map(|v| v.abs() > crate::phases::LOADING_SPEED_FRACTION * fast)
+            .collect();
+        let count = moving.iter().filter(|m| **m).count();
+        if count == 0 || 2 * count > COARSE_POINTS {
+            return every(stride);
+        }
+        let quiet = n - count;
+        let quiet_stride = quiet.div_ceil(COARSE_POINTS - count).max(1);
+        let mut seen = 0usize;
+        let picked: Vec<usize> = (0..n)
+            .filter(|&i| {
+                moving[i] || {
+                    seen += 1;
+                    (seen - 1) % quiet_stride == 0
+                }
+            })
+            .collect();
+        let quiet_weight = quiet as f64 / (picked.len() - count).max(1) as f64;
+        let weight = picked
+            .iter()
+            .map(|&i| if moving[i] { 1.0 } else { quiet_weight })
+            .collect();
+        self.thinned(&picked, weight)
+    }
+
+    /// The same problem on the points `picked` (in order), with these `weight`s.
+    fn thinned(&self, picked: &[usize], weight: Vec<f64>) -> Problem<'a> {
+        let pick = |v: &[f64]| picked.iter().map(|&i| v[i]).collect::<Vec<f64>>();
         let f: Vec<f64> = pick(&self.f);
         Problem {
             series: self.series,
@@ -739,7 +865,9 @@ impl<'a> Problem<'a> {
             force: self.force,
             rate: self.rate,
             u: pick(&self.u),
-            y_sums: y_sums(&f, self.fixed_offset()),
+            w: pick(&self.w),
+            y_sums: y_sums(&f, &weight, self.fixed_offset()),
+            weight,
             f,
             v: pick(&self.v),
             t: pick(&self.t),
@@ -760,7 +888,7 @@ impl<'a> Problem<'a> {
         let span = hi - lo;
         let (a, b) = (lo - 3.0 * span, hi - 0.02 * span);
         let step = (b - a) / CONTACT_GRID as f64;
-        let coarse = self.thinned(self.u.len().div_ceil(COARSE_POINTS).max(1));
+        let coarse = self.coarse();
         let (rlo, rhi) = self.rate_range();
         let mut nu = (rlo * rhi).sqrt();
         // rss and n at every grid point.

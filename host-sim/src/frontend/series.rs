@@ -53,6 +53,12 @@ pub struct Series {
     pub force_n: Vec<f64>,
     /// Native samples each point stands for (the block length).
     pub block: usize,
+    /// Width \[m\] of the positions each point averages, as a uniform spread: the run's
+    /// travel (max − min) × m/(m − 1) for a run of m samples (each sample stands for 1/m of
+    /// it), 0 for one sample. Where a run straddles the contact point its mean force is
+    /// the mean of the law over the run, not the law at the mean (a Kelvin-Voigt law jumps
+    /// by λ·v at contact).
+    pub spread_m: Vec<f64>,
     /// Native samples averaged into each point (≤ `block`): the force noise of a point
     /// is the native noise / √`averaged`.
     pub averaged: usize,
@@ -85,6 +91,18 @@ impl Series {
         let time: Vec<f64> = starts.iter().map(|&s| mean(time_s, s)).collect();
         let position: Vec<f64> = starts.iter().map(|&s| mean(position_m, s)).collect();
         let force: Vec<f64> = starts.iter().map(|&s| mean(force_n, s)).collect();
+        let spread: Vec<f64> = starts
+            .iter()
+            .map(|&s| {
+                let r = &position_m[run(s)];
+                let (lo, hi) = super::fit::min_max(r);
+                if r.len() > 1 {
+                    (hi - lo) * r.len() as f64 / (r.len() - 1) as f64
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let (rate, k) = native_rate(&time_s[..n], &position_m[..n], &starts, averaged);
         let keep = off_kinks(&time_s[..n], &position_m[..n], &starts, averaged, k, &rate);
         let series = Series {
@@ -92,6 +110,7 @@ impl Series {
             position_m: position,
             rate_m_per_s: rate,
             force_n: force,
+            spread_m: spread,
             block,
             averaged,
             kinks: 0,
@@ -119,6 +138,7 @@ impl Series {
             position_m: pick(&self.position_m),
             rate_m_per_s: pick(&self.rate_m_per_s),
             force_n: pick(&self.force_n),
+            spread_m: pick(&self.spread_m),
             block: self.block,
             averaged: self.averaged,
             kinks: self.kinks,
