@@ -7,13 +7,13 @@
 /// each.
 pub const MAX_POINTS: usize = 6000;
 
-/// Half-widths \[s\] tried for the symmetric difference that estimates the rate, after
-/// one sample (tried first): 4 ms follows a 10 Hz tap; a slow indentation with nanometre
-/// jitter needs up to 0.5 s before its rate is more than noise. A position without noise
-/// (a commanded or simulated one) takes one sample: a wider window smears the corners of a
-/// ramp over its width, and a Kelvin-Voigt law turns the smeared rate into a force error
-/// of λ·v there (a ramp-and-hold at 83 mm/s: 17 N on each of 8 samples, which moved the
-/// contact point 0.4 mm).
+/// Half-widths \[s\] tried for the symmetric difference that estimates the rate, shortest
+/// first: 4 ms follows a 10 Hz tap; a slow indentation with nanometre jitter needs up to
+/// 0.5 s before its rate is more than noise. (A one-sample difference was tried: its rate
+/// noise, up to [`MAX_RATE_NOISE`] of the speed on an encoder's quantisation, made the
+/// damping column of a constant-speed ramp look independent of the stiffness's, VIF 2.5e4
+/// → below the limit, and λ was reported determined at one speed. The corners of a ramp
+/// that a wider window smears are left out instead: [`KINK_FRACTION`].)
 pub const RATE_HALF_WINDOWS_S: [f64; 7] = [4.0e-3, 10.0e-3, 25.0e-3, 50.0e-3, 0.1, 0.25, 0.5];
 
 /// Largest change of the native rate over one sample, as a fraction of the record's
@@ -211,7 +211,7 @@ fn native_rate(
     let sigma_x = crate::setup::noise_level(position);
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let mut last = (Vec::new(), 1);
-    for k in half_windows(dt) {
+    for (k, h) in half_windows(dt) {
         let at = |i: usize| symmetric_difference(time_s, position, i, k);
         let rate: Vec<f64> = starts
             .iter()
@@ -221,8 +221,7 @@ fn native_rate(
                 run.map(at).sum::<f64>() / len
             })
             .collect();
-        let fast = fast_speed(&rate);
-        if quiet_enough(sigma_x, k as f64 * dt, fast) {
+        if quiet_enough(sigma_x, h, fast_speed(&rate)) {
             return (rate, k);
         }
         last = (rate, k);
@@ -230,17 +229,12 @@ fn native_rate(
     last
 }
 
-/// Half-widths in samples to try at sample interval `dt` \[s\], shortest first: one
-/// sample, then [`RATE_HALF_WINDOWS_S`] (each at least one sample longer than the last).
-fn half_windows(dt: f64) -> Vec<usize> {
-    let mut out = vec![1];
-    for h in RATE_HALF_WINDOWS_S {
-        let k = (h / dt).round() as usize;
-        if k > *out.last().unwrap_or(&0) {
-            out.push(k);
-        }
-    }
-    out
+/// The half-widths of [`RATE_HALF_WINDOWS_S`] at sample interval `dt` \[s\]: (samples, at
+/// least one; seconds).
+fn half_windows(dt: f64) -> impl Iterator<Item = (usize, f64)> {
+    RATE_HALF_WINDOWS_S
+        .into_iter()
+        .map(move |h| (((h / dt).round() as usize).max(1), h))
 }
 
 /// The 99.9th-percentile speed of `rate` (0 when empty).
@@ -308,8 +302,8 @@ fn off_kinks(
     (dropped > 0 && dropped as f64 <= MAX_KINK_SHARE * keep.len() as f64).then_some(keep)
 }
 
-/// The rate of `position` by the shortest symmetric difference (one sample, then
-/// [`RATE_HALF_WINDOWS_S`]) whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
+/// The rate of `position` by the shortest symmetric difference of [`RATE_HALF_WINDOWS_S`]
+/// whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
 /// [`MAX_RATE_NOISE`] of the 99.9th-percentile speed it gives (not the 99th: the ramps of
 /// a ramp-and-hold are 1-2 % of its samples).
 pub fn rate_estimate(time_s: &[f64], position: &[f64]) -> Vec<f64> {
@@ -320,11 +314,11 @@ pub fn rate_estimate(time_s: &[f64], position: &[f64]) -> Vec<f64> {
     let sigma_x = crate::setup::noise_level(position);
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let mut last = Vec::new();
-    for k in half_windows(dt) {
+    for (k, h) in half_windows(dt) {
         let rate: Vec<f64> = (0..n)
             .map(|i| symmetric_difference(time_s, position, i, k))
             .collect();
-        if quiet_enough(sigma_x, k as f64 * dt, fast_speed(&rate)) {
+        if quiet_enough(sigma_x, h, fast_speed(&rate)) {
             return rate;
         }
         last = rate;
