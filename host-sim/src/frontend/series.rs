@@ -103,8 +103,17 @@ impl Series {
                 }
             })
             .collect();
-        let (rate, k) = native_rate(&time_s[..n], &position_m[..n], &starts, averaged);
-        let keep = off_kinks(&time_s[..n], &position_m[..n], &starts, averaged, k, &rate);
+        let sigma_x = crate::setup::noise_level(&position_m[..n]);
+        let (rate, k) = native_rate(&time_s[..n], &position_m[..n], sigma_x, &starts, averaged);
+        let keep = off_kinks(
+            &time_s[..n],
+            &position_m[..n],
+            sigma_x,
+            &starts,
+            averaged,
+            k,
+            &rate,
+        );
         let series = Series {
             time_s: time,
             position_m: position,
@@ -196,11 +205,13 @@ fn jitter(b: usize, span: usize) -> usize {
 
 /// The rate of each point: the native symmetric difference of [`symmetric_rate`] averaged
 /// over the point's run, with the half-width chosen as in [`rate_estimate`] (σ_x from the
-/// native position's second differences, the 99.9th-percentile speed over the points), and
+/// native position's second differences, `sigma_x`; the 99.9th-percentile speed over the
+/// points), and
 /// that half-width in samples.
 fn native_rate(
     time_s: &[f64],
     position: &[f64],
+    sigma_x: f64,
     starts: &[usize],
     averaged: usize,
 ) -> (Vec<f64>, usize) {
@@ -208,7 +219,6 @@ fn native_rate(
     if n < 2 {
         return (vec![0.0; starts.len()], 1);
     }
-    let sigma_x = crate::setup::noise_level(position);
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let mut last = (Vec::new(), 1);
     for (k, h) in half_windows(dt) {
@@ -263,6 +273,7 @@ fn quiet_enough(sigma_x: f64, h: f64, fast: f64) -> bool {
 fn off_kinks(
     time_s: &[f64],
     position: &[f64],
+    sigma_x: f64,
     starts: &[usize],
     averaged: usize,
     k: usize,
@@ -273,15 +284,17 @@ fn off_kinks(
         return None;
     }
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
-    let noise = 8.0 * crate::setup::noise_level(position) * 6f64.sqrt() / dt;
+    let noise = 8.0 * sigma_x * 6f64.sqrt() / dt;
     let limit = (KINK_FRACTION * fast_speed(rate)).max(noise);
     // Kinks counted up to each sample: the difference of the rates on either side of i.
     let mut kinks = vec![0usize; n + 1];
     for i in 0..n {
+        // |Δx⁺/Δt⁺ − Δx⁻/Δt⁻| > limit, multiplied out (one pass over a long record).
         let kink = i > 0 && i + 1 < n && {
-            let after = (position[i + 1] - position[i]) / (time_s[i + 1] - time_s[i]);
-            let before = (position[i] - position[i - 1]) / (time_s[i] - time_s[i - 1]);
-            (after - before).abs() > limit
+            let (ta, tb) = (time_s[i + 1] - time_s[i], time_s[i] - time_s[i - 1]);
+            let change =
+                (position[i + 1] - position[i]) * tb - (position[i] - position[i - 1]) * ta;
+            change.abs() > limit * ta * tb
         };
         kinks[i + 1] = kinks[i] + usize::from(kink);
     }
