@@ -838,7 +838,7 @@ impl<'a> Problem<'a> {
             .filter(|&i| {
                 moving[i] || {
                     seen += 1;
-                    (seen - 1) % quiet_stride == 0
+                    (seen - 1).is_multiple_of(quiet_stride)
                 }
             })
             .collect();
