@@ -698,13 +698,15 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
     }
 }
 
-/// A Hunt-Crossley ramp-and-hold shows its law at two brief ramps only (seed 3000: 65 ms
-/// in, the rest a 11 s hold). On contiguous folds (`interleave_folds: false`, as before
-/// the folds interleaved there) the depth damping alone fits the ramp out but misfits the
-/// ramp in when it is held out (2 of 5 folds better, though its BIC falls by 1788), and the
-/// power law alone gains 1.4 %: neither passes the rule, and nothing was named. Tried in
-/// pairs (`diagnose::joint_pair`), the two pass together and are named in two steps marked
-/// as joint, with the exponent within 10 % of the truth.
+/// A Hunt-Crossley ramp-and-hold shows its law at two brief ramps only (seed 3002: a 0.12 s
+/// ramp in, a 12.5 s hold, the ramp out). On contiguous folds (`interleave_folds: false`,
+/// as before the folds interleaved there) neither the depth damping nor the power law
+/// passes the rule alone (each fits one ramp and misfits the other when it is held out).
+/// Tried in pairs (`diagnose::joint_pair`), the two pass together and are named in two
+/// steps marked as joint, with the exponent within 10 % of the truth. (Seed 3000 showed
+/// this until 2026-11-25; since the front end leaves out the points whose rate reads
+/// across a ramp's corner, its depth damping passes alone there and the power law follows
+/// in a step of its own: the same two effects, 1.15 → 0.47 %.)
 #[test]
 fn two_effects_that_pass_only_together_are_named_together() {
     let dir = tempfile::tempdir().unwrap();
@@ -712,7 +714,7 @@ fn two_effects_that_pass_only_together_are_named_together() {
         dir.path(),
         Structure::RampHold,
         MaterialKind::HuntCrossley,
-        3000,
+        3002,
         &contiguous_folds(),
     );
     assert_eq!(d.cv_block, None);
