@@ -154,8 +154,9 @@ fn front_end_nrmse_percent(front: &FrontEnd) -> f64 {
 
 /// Largest relative difference between the online estimate and the whole-record fit in
 /// the exponent and the elastic force at the median contact depth (κ for Kelvin-Voigt:
-/// 3 %), and in the damping force at that depth and the 90th-percentile speed (30 %, or 5 %
-/// of the elastic force when the fit's damping is smaller than that).
+/// 3 %), and in the damping force at that depth and a speed the record moves at (30 %, or
+/// 5 % of the elastic force when the fit's damping is smaller than that; see
+/// [`disagreement`]).
 const AGREEMENT: (f64, f64, f64) = (0.05, 0.03, 0.30);
 
 /// How the online estimate `online` differs from the front end's whole-record fit beyond

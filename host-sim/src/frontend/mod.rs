@@ -304,6 +304,11 @@ pub fn analyse_oriented(
         });
     }
     let series = Series::new(time_s, position_m, force_n);
+    let series = if family.has_relaxation() {
+        series
+    } else {
+        series.without_kinks()
+    };
     let free_offset = OffsetTerm::Free;
     let signs: Vec<f64> = match (oriented, options.position_sign) {
         (Some((s, _)), _) | (None, Some(s)) => vec![s.signum()],

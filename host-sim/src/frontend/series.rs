@@ -29,6 +29,12 @@ pub const KINK_FRACTION: f64 = 0.2;
 /// is kept.
 pub const MAX_KINK_SHARE: f64 = 0.02;
 
+/// Largest share of the moving samples (one-sample speed above
+/// [`crate::phases::LOADING_SPEED_FRACTION`] of the fast speed) that may be kinks: a ramp
+/// has two (its start and its end) in dozens of moving samples; a quantised position
+/// moving a count at a time makes every step one.
+pub const MAX_KINK_SHARE_OF_MOTION: f64 = 0.1;
+
 /// Largest rate noise the chosen half-width may leave, as a fraction of the record's
 /// 99.9th-percentile speed.
 pub const MAX_RATE_NOISE: f64 = 0.02;
@@ -63,8 +69,10 @@ pub struct Series {
     /// is the native noise / √`averaged`.
     pub averaged: usize,
     /// Points left out because their rate reads across a kink of the motion
-    /// ([`KINK_FRACTION`]).
+    /// ([`KINK_FRACTION`], [`Series::without_kinks`]; 0 in a [`Series::subset`]).
     pub kinks: usize,
+    /// Which points [`Series::without_kinks`] keeps (`None`: all).
+    kink_free: Option<Vec<bool>>,
 }
 
 impl Series {
@@ -105,7 +113,7 @@ impl Series {
             .collect();
         let sigma_x = crate::setup::noise_level(&position_m[..n]);
         let (rate, k) = native_rate(&time_s[..n], &position_m[..n], sigma_x, &starts, averaged);
-        let keep = off_kinks(
+        let kink_free = off_kinks(
             &time_s[..n],
             &position_m[..n],
             sigma_x,
@@ -114,7 +122,7 @@ impl Series {
             k,
             &rate,
         );
-        let series = Series {
+        Series {
             time_s: time,
             position_m: position,
             rate_m_per_s: rate,
@@ -123,13 +131,22 @@ impl Series {
             block,
             averaged,
             kinks: 0,
-        };
-        match keep {
+            kink_free,
+        }
+    }
+
+    /// The series without the points whose rate reads across a kink of the motion (none
+    /// when kinks would remove more than [`MAX_KINK_SHARE`] of them): for the laws whose
+    /// columns read the rate (Kelvin-Voigt, Hunt-Crossley, exponential damping). The
+    /// relaxation laws do not read it, and there those points are the peak of a step and
+    /// the start of its relaxation.
+    pub fn without_kinks(mut self) -> Series {
+        match self.kink_free.take() {
             Some(keep) => Series {
                 kinks: keep.iter().filter(|k| !**k).count(),
-                ..series.subset(&keep)
+                ..self.subset(&keep)
             },
-            None => series,
+            None => self,
         }
     }
 
@@ -150,7 +167,8 @@ impl Series {
             spread_m: pick(&self.spread_m),
             block: self.block,
             averaged: self.averaged,
-            kinks: self.kinks,
+            kinks: 0,
+            kink_free: None,
         }
     }
 
@@ -269,7 +287,10 @@ fn quiet_enough(sigma_x: f64, h: f64, fast: f64) -> bool {
 /// points whose rate (the mean over the run from each start, `averaged` samples, of
 /// symmetric differences of half-width `k` samples) spans a native sample whose rate
 /// changes by more than [`KINK_FRACTION`] of the 99.9th-percentile point speed and by more
-/// than 8 deviations of that change's noise (σ_x·√6 / Δt, σ_x from second differences).
+/// than 8 deviations of that change's noise (σ_x·√6 / Δt, σ_x from second differences);
+/// `None` too when kinks are more than [`MAX_KINK_SHARE_OF_MOTION`] of the moving samples
+/// (an encoder's slow ramp: most samples do not change, the median second difference is
+/// 0, and every count is a step of the one-sample rate).
 fn off_kinks(
     time_s: &[f64],
     position: &[f64],
@@ -285,10 +306,20 @@ fn off_kinks(
     }
     let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let noise = 8.0 * sigma_x * 6f64.sqrt() / dt;
-    let limit = (KINK_FRACTION * fast_speed(rate)).max(noise);
+    let fast_speed_of = fast_speed(rate);
+    let limit = (KINK_FRACTION * fast_speed_of).max(noise);
     // Kinks counted up to each sample: the difference of the rates on either side of i.
     let mut kinks = vec![0usize; n + 1];
+    let mut moving = 0usize;
     for i in 0..n {
+        if i + 1 < n
+            && (position[i + 1] - position[i]).abs()
+                > crate::phases::LOADING_SPEED_FRACTION
+                    * fast_speed_of
+                    * (time_s[i + 1] - time_s[i])
+        {
+            moving += 1;
+        }
         // |Δx⁺/Δt⁺ − Δx⁻/Δt⁻| > limit, multiplied out (one pass over a long record).
         let kink = i > 0 && i + 1 < n && {
             let (ta, tb) = (time_s[i + 1] - time_s[i], time_s[i] - time_s[i - 1]);
@@ -298,7 +329,7 @@ fn off_kinks(
         };
         kinks[i + 1] = kinks[i] + usize::from(kink);
     }
-    if kinks[n] == 0 {
+    if kinks[n] == 0 || kinks[n] as f64 > MAX_KINK_SHARE_OF_MOTION * moving as f64 {
         return None;
     }
     // The symmetric difference at j reads x[j − k] and x[j + k]: a kink strictly between
@@ -369,6 +400,41 @@ fn symmetric_difference(time_s: &[f64], position: &[f64], i: usize, k: usize) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A ramp-and-hold at 1 kHz: 0.1 s of ramp at `speed` \[m/s\] from t = 0.5 s, then a
+    /// 5 s hold, the position rounded to `quantum` \[m\] (0: exact).
+    fn ramp_and_hold(speed: f64, quantum: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..6000).map(|i| i as f64 * 1e-3).collect();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|t| {
+                let x = speed * (t - 0.5).clamp(0.0, 0.1);
+                if quantum > 0.0 {
+                    (x / quantum).round() * quantum
+                } else {
+                    x
+                }
+            })
+            .collect();
+        let f: Vec<f64> = x.iter().map(|x| 1e3 * x).collect();
+        (t, x, f)
+    }
+
+    #[test]
+    fn a_ramp_s_corners_are_kinks_and_an_encoder_s_counts_are_not() {
+        // Exact: the start and the end of the ramp bend the rate of the points whose
+        // window spans them (k = 4 samples each side: two corners, 7 samples each).
+        let (t, x, f) = ramp_and_hold(0.05, 0.0);
+        let s = Series::new(&t, &x, &f).without_kinks();
+        assert_eq!(s.kinks, 14);
+        assert_eq!(s.len(), 6000 - 14);
+        // A 1 µm encoder at 0.3 counts per sample: every count is a step of the
+        // one-sample rate; none is taken for a kink.
+        let (t, x, f) = ramp_and_hold(3e-4, 1e-6);
+        let s = Series::new(&t, &x, &f).without_kinks();
+        assert_eq!(s.kinks, 0);
+        assert_eq!(s.len(), 6000);
+    }
 
     #[test]
     fn long_records_are_averaged_in_blocks_and_rates_are_exact_on_ramps() {
