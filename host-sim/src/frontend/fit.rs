@@ -819,9 +819,7 @@ impl<'a> Problem<'a> {
         if stride == 1 {
             return every(1);
         }
-        let mut speeds: Vec<f64> = self.v.iter().map(|v| v.abs()).collect();
-        let q = ((n - 1) as f64 * 0.999) as usize;
-        let fast = *speeds.select_nth_unstable_by(q, f64::total_cmp).1;
+        let fast = super::series::fast_speed(&self.v);
         let moving: Vec<bool> = self
             .v
             .iter()

@@ -266,7 +266,7 @@ fn half_windows(dt: f64) -> impl Iterator<Item = (usize, f64)> {
 }
 
 /// The 99.9th-percentile speed of `rate` (0 when empty).
-fn fast_speed(rate: &[f64]) -> f64 {
+pub(crate) fn fast_speed(rate: &[f64]) -> f64 {
     let mut speeds: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
     let q = ((speeds.len().max(1) - 1) as f64 * 0.999) as usize;
     if speeds.is_empty() {
