@@ -407,12 +407,18 @@ pub fn estimate_file(
                     ModelKind::HuntCrossley | ModelKind::HuntCrossleySingleStage
                 )
             {
-                if let Some(k) = others.iter_mut().find(|o| o.name == "k" && o.identifiable) {
+                if let Some(k) = others.iter_mut().find(|o| o.name == "k") {
+                    let one_speed = "with the damping held, k is the stiffness at the record's \
+                                     loading speed (k + λ·v: elastic and viscous at one speed are \
+                                     one term); a second speed separates them";
+                    // (Both reasons when k is also undetermined for another, e.g. the
+                    // contact point it trades with.)
+                    k.reason = if k.identifiable {
+                        one_speed.into()
+                    } else {
+                        format!("{}; and {one_speed}", k.reason)
+                    };
                     k.identifiable = false;
-                    k.reason = "with the damping held, k is the stiffness at the record's loading \
-                                speed (k + λ·v: elastic and viscous at one speed are one term); a \
-                                second speed separates them"
-                        .into();
                 }
             }
             others.push(lambda);
