@@ -760,6 +760,10 @@ pub fn prepare_file(
     )
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;
+    if loaded.resampled.is_some() {
+        let t0 = record.time_s.first().copied().unwrap_or(0.0);
+        prepared.native_raw_index = native.time_s.iter().map(|t| (t - t0) * 1e3).collect();
+    }
     prepared.offset_unidentified = !front.offset_identifiable();
     prepared.position_sign = front.position_sign;
     if let Some(phase) = until_end_of {
@@ -776,10 +780,19 @@ pub fn prepare_file(
             prepared.time_s[prepared.len() - 1]
         ));
     }
+    let kinks = prepared.kink.iter().filter(|k| **k).count();
     notes.push(format!(
-        "fitted on {} samples of {:.1} ms (block means of the 1 kHz record)",
+        "fitted on {} samples of {:.1} ms (block means of the 1 kHz record){}",
         prepared.len(),
-        1e3 * prepared.dt
+        1e3 * prepared.dt,
+        if kinks > 0 {
+            format!(
+                "; {kinks} of them left out of every fit and score, whose rate reads across a \
+                 kink of the motion, where it is not defined"
+            )
+        } else {
+            String::new()
+        }
     ));
     Ok(Prepare {
         record: loaded.into_uniform(),
@@ -794,7 +807,8 @@ pub struct SpecSimulation {
     pub prepare: Prepare,
     /// The model's force \[N\] from [`crate::diagnose::data::Prepared::fit_start`] on.
     pub force_n: Vec<f64>,
-    /// NRMSE \[%\] of the model against the file's force over those samples.
+    /// NRMSE \[%\] of the model against the file's force over those samples (but those
+    /// whose rate reads across a kink of the motion, as the diagnosis scores them).
     pub nrmse_percent: f64,
 }
 
@@ -814,7 +828,14 @@ pub fn simulate_spec(
     let data = &prepare.prepared;
     let force_n = spec.force_n(data);
     let measured = &data.force_n[data.fit_start()..];
-    let nrmse_percent = crate::simulate::nrmse_percent(measured, &force_n).with_context(|| {
+    // Over the samples the diagnosis scores: not those whose rate reads across a kink.
+    let pairs = measured
+        .iter()
+        .zip(&force_n)
+        .zip(&data.kink[data.fit_start()..])
+        .filter(|(_, kink)| !**kink)
+        .map(|((m, f), _)| (*m, *f));
+    let nrmse_percent = crate::simulate::nrmse_percent_of(pairs).with_context(|| {
         format!(
             "{}: the measured force has no range to compare against",
             path.display()

@@ -60,19 +60,20 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
 /// Rows below the issue's rates on the sweep of 2026-11-24 (seeds 3000-3019; README
 /// table): the sweep prints them and asserts only the guarantees there (no error, no
 /// effect the record cannot identify), not the rates. Issue 13 stays open on them:
-/// - Kelvin-Voigt (nothing to add) on four structures: 14-18 of 20 clean (a delay, an
-///   exponential law or a contact shift takes up a misfit at a sharp reversal or impact;
-///   a damping rate exact there, the chord of each block, was tried on 2026-11-24 and
-///   did not lower it on an independent generator's taps while it added Coulomb friction
-///   to 4 of 5 clean AFM records: the cause is not settled). (On one constant-speed ramp it was 2/20, the
-///   damping's impact step λv read as a power law with n < 1 while the one-speed rule
-///   held the baseline's damping at 0; with the damping fitted from that step, 19/20.)
-/// - Hunt-Crossley on ramp-and-hold: 13/20 since its folds interleave (9/20 before; of
-///   the 7 misses, 3 name the damping without a law, 2 the exponential law for the power
-///   law, which the record does not tell apart, 2 a plastic set);
+/// - Hunt-Crossley on ramp-and-hold: 13/20 since the kink samples are left out (12/20
+///   before, 9/20 before its folds interleaved; of the misses then, 3 named the damping
+///   without a law, 2 the exponential law for the power law, which the record does not
+///   tell apart, 2 a plastic set);
 /// - power law + relaxation (the core's QLV) on one load/unload ramp: 8/20 (in 8 more
 ///   the plastic set is named with relaxation listed as indistinguishable from it).
 ///
+/// (Out of the list since the samples whose rate reads across a kink of the motion are
+/// left out and a resampled log's contact edges are modelled as the resampler draws
+/// them, 2026-11-25: Kelvin-Voigt on one load/unload ramp, 18/20 → 20/20 clean (a 100 Hz
+/// reversal's one sample, 33 σ off, took an exponential law), on taps 18/20 → 19/20 (a
+/// contact shift took up the edges' misfit; a damping rate exact there, each block's
+/// chord, had been tried on 2026-11-24 and had not lowered it); Kelvin-Voigt on
+/// ramp-and-hold, at 19/20 since 2026-11-25's contact grid.)
 /// (Out of the list since an effect whose own parameter stays at its nested value is not
 /// named, 2026-11-24: Kelvin-Voigt on the chirp, 17/20 → 20/20. Out of the list since the
 /// contact search continues past its bound,
@@ -81,10 +82,7 @@ const MATERIALS: [(MaterialKind, &[&str]); 4] = [
 /// contact, beyond the search range, and an exponential law stood in for the power law
 /// from there), and every row that never leaves contact: 15-17/20 → 19-20/20, QLV
 /// 6/20 → 18/20.)
-const BELOW_TARGET: [(Structure, MaterialKind); 5] = [
-    (Structure::RampLoadUnload, MaterialKind::KelvinVoigt),
-    (Structure::RampHold, MaterialKind::KelvinVoigt),
-    (Structure::Taps, MaterialKind::KelvinVoigt),
+const BELOW_TARGET: [(Structure, MaterialKind); 2] = [
     (Structure::RampHold, MaterialKind::HuntCrossley),
     (Structure::RampLoadUnload, MaterialKind::Qlv),
 ];
@@ -655,20 +653,43 @@ fn a_delay_is_not_tried_where_one_frequency_in_contact_cannot_show_it() {
     }
 }
 
+/// A clean Kelvin-Voigt load/unload ramp at 100 Hz (the sweep's seed 3008, looked at to
+/// find this, so no longer an unseen one): its reversal lies within a sample, where the
+/// symmetric difference reads a rate near 0 while the force has ±λv on either side, a
+/// 33-σ residual. Before the diagnosis left such samples out (`Prepared::kink`) an
+/// exponential law took a share of it (ΔBIC −20).
+#[test]
+fn a_ramp_s_reversal_within_a_sample_is_left_out_not_explained() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, d) = diagnose_generated(
+        dir.path(),
+        Structure::RampLoadUnload,
+        MaterialKind::KelvinVoigt,
+        3008,
+    );
+    assert!(d.effects_added().is_empty(), "{:?}", d.effects_added());
+}
+
 /// A delay is named only where the record's contact edges show it. On clean
-/// Kelvin-Voigt taps of the structure generator (seeds 3013 and 3018, where a 2026-11-24
-/// main named a delay that fitted a misfit away from the edges) nothing is named; on
-/// seed 3013 the delay candidate passes the information criterion but is refused for its
-/// edges. (On seed 3018 it did too until the baseline's contact search reached the lower
-/// stair of its staircase, `solver::CONTACT_LEVELS`: NRMSE 0.541 → 0.530 %, and the
-/// delay's gain went with it, ΔBIC −50.5 → +6.4.) (That real delays pass: the
-/// hidden-effect sweep's delay rows, and its quick run in `cargo test`.)
+/// Kelvin-Voigt records of the structure generator where a delay fitted a misfit away
+/// from the edges nothing is named: taps seeds 3013 and 3018 (a 2026-11-24 main named a
+/// delay there; on seed 3013 the candidate then passed the information criterion and was
+/// refused for its edges, on 3018 it stopped gaining when the baseline's contact search
+/// reached the lower stair of its staircase, `solver::CONTACT_LEVELS`; since a resampled
+/// log's contact edges are modelled as the resampler draws them, 2026-11-25, neither
+/// gains and no taps seed of 3000-3199 has a delay refused for its edges), and sines with
+/// brief lift-offs seed 3007 (100 Hz), whose delay candidate is refused for its edges.
+/// (That real delays pass: the hidden-effect sweep's delay rows, and its quick run in
+/// `cargo test`.)
 #[test]
 fn a_delay_the_contact_edges_do_not_show_is_not_named() {
     let dir = tempfile::tempdir().unwrap();
-    for seed in [3013, 3018] {
-        let (_, d) =
-            diagnose_generated(dir.path(), Structure::Taps, MaterialKind::KelvinVoigt, seed);
+    for (structure, seed) in [
+        (Structure::Taps, 3013),
+        (Structure::Taps, 3018),
+        (Structure::ContactSinesBrief, 3007),
+    ] {
+        let (_, d) = diagnose_generated(dir.path(), structure, MaterialKind::KelvinVoigt, seed);
         assert!(
             !d.effects_added().contains(&"time_delay"),
             "seed {seed}: {:?}",
@@ -682,31 +703,34 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
             .filter(|c| c.effect == Effect::TimeDelay)
             .collect();
         assert!(!delays.is_empty(), "seed {seed}: no delay was tried");
-        if seed == 3013 {
-            assert!(
-                delays.iter().any(|c| c.unseen_at_contact_edges),
-                "seed {seed}: the delay was not refused for its edges"
-            );
-        } else {
+        if structure == Structure::Taps {
             assert!(
                 delays
                     .iter()
                     .all(|c| c.delta_bic > -Options::default().min_bic_drop),
                 "seed {seed}: the delay gains on the baseline"
             );
+        } else {
+            assert!(
+                delays.iter().any(|c| c.unseen_at_contact_edges),
+                "seed {seed}: the delay was not refused for its edges"
+            );
         }
     }
 }
 
-/// A Hunt-Crossley ramp-and-hold shows its law at two brief ramps only (seed 3002: a 0.12 s
-/// ramp in, a 12.5 s hold, the ramp out). On contiguous folds (`interleave_folds: false`,
+/// A Hunt-Crossley ramp-and-hold shows its law at two brief ramps only (seed 3116). On
+/// contiguous folds (`interleave_folds: false`,
 /// as before the folds interleaved there) neither the depth damping nor the power law
 /// passes the rule alone (each fits one ramp and misfits the other when it is held out).
 /// Tried in pairs (`diagnose::joint_pair`), the two pass together and are named in two
 /// steps marked as joint, with the exponent within 10 % of the truth. (Seed 3000 showed
 /// this until 2026-11-25; since the front end leaves out the points whose rate reads
 /// across a ramp's corner, its depth damping passes alone there and the power law follows
-/// in a step of its own: the same two effects, 1.15 → 0.47 %.)
+/// in a step of its own: the same two effects, 1.15 → 0.47 %. Seed 3002 showed it until
+/// the contact edges of a resampled log were modelled as the resampler draws them,
+/// 2026-11-25: there too the depth damping now passes alone; seeds 3000-3120 scanned,
+/// 3116 is the one joint pair of these two effects.)
 #[test]
 fn two_effects_that_pass_only_together_are_named_together() {
     let dir = tempfile::tempdir().unwrap();
@@ -714,7 +738,7 @@ fn two_effects_that_pass_only_together_are_named_together() {
         dir.path(),
         Structure::RampHold,
         MaterialKind::HuntCrossley,
-        3002,
+        3116,
         &contiguous_folds(),
     );
     assert_eq!(d.cv_block, None);

@@ -33,6 +33,18 @@ pub struct Prepared {
     pub rate_m_per_s: Vec<f64>,
     /// δ̈ \[m/s²\] (second difference).
     pub accel_m_per_s2: Vec<f64>,
+    /// The sample's rate reads across a kink of the motion (a ramp starting, stopping or
+    /// reversing within a sample: the symmetric difference there is neither side's rate,
+    /// and a Kelvin-Voigt law turns it into a force λ·Δv/2 off, tens of noise deviations
+    /// on a 100 Hz ramp). Left out of every fit, score and count (the front end's rule,
+    /// `frontend::series::rate_and_kinks`: none when kinks would be more than 2 % of the
+    /// samples or 10 % of the moving ones).
+    pub kink: Vec<bool>,
+    /// The file's own sample times on the raw (1 kHz) index axis of a resampled log
+    /// (index = (t − t₀)·1 kHz, increasing); empty for a log at its native rate. The
+    /// resampler draws straight lines between them, and the regressors model a block at a
+    /// contact's edge the same way (`regressors::design`).
+    pub native_raw_index: Vec<f64>,
     /// Force with the pre-contact offset removed \[N\].
     pub force_n: Vec<f64>,
     /// In contact according to the detector (majority of the block).
@@ -279,7 +291,13 @@ fn assemble(
     // motion (the front end's): a slow indentation's nanometre jitter would otherwise
     // flicker the phases between loading and hold.
     let block_time: Vec<f64> = (0..blocks).map(|b| b as f64 * dt).collect();
-    let rate = crate::frontend::series::rate_estimate(&block_time, &depth);
+    let (rate, kink) = crate::frontend::series::rate_and_kinks(&block_time, &depth);
+    // (Out of contact the force does not read the rate: a kink there costs nothing.)
+    let kink: Vec<bool> = kink
+        .iter()
+        .zip(&in_contact)
+        .map(|(k, c)| *k && *c)
+        .collect();
     let accel: Vec<f64> = (0..blocks)
         .map(|b| {
             if b == 0 || b + 1 >= blocks {
@@ -307,6 +325,8 @@ fn assemble(
         depth_m: depth,
         rate_m_per_s: rate,
         accel_m_per_s2: accel,
+        kink,
+        native_raw_index: Vec::new(),
         force_n: force,
         contact: in_contact,
         phase,
@@ -471,11 +491,30 @@ impl Prepared {
             v.truncate(end);
         }
         self.contact.truncate(end);
+        self.kink.truncate(end);
         self.phase.truncate(end);
         self.raw_depth_m.truncate(end * self.block);
         self.raw_depth_prefix.truncate(end * self.block + 1);
         self.first_contact_end = self.first_contact_end.min(end);
         true
+    }
+
+    /// Which samples of the fit window from `start` count (not [`Prepared::kink`]s), or
+    /// `None` when all do.
+    pub fn counted_from(&self, start: usize) -> Option<Vec<bool>> {
+        let kink = &self.kink[start.min(self.kink.len())..];
+        kink.iter()
+            .any(|k| *k)
+            .then(|| kink.iter().map(|k| !k).collect())
+    }
+
+    /// Samples of the fit window from `start` that count.
+    pub fn samples_counted_from(&self, start: usize) -> usize {
+        self.len().saturating_sub(start)
+            - self.kink[start.min(self.kink.len())..]
+                .iter()
+                .filter(|k| **k)
+                .count()
     }
 
     /// Number of samples.

@@ -189,6 +189,18 @@ pub(super) fn design(
     };
     let block = data.block;
     let half = (block as f64 - 1.0) / 2.0;
+    // The file's own samples on the raw index axis (a resampled log; empty otherwise), and
+    // the two that bracket raw index x.
+    let native = &data.native_raw_index;
+    let native_bracket = |x: f64| -> (f64, f64) {
+        let k = native.partition_point(|&t| t <= x);
+        match (k.checked_sub(1).map(|k| native[k]), native.get(k)) {
+            (Some(a), Some(&z)) => (a, z),
+            (Some(a), None) => (a, a),
+            (None, Some(&z)) => (z, z),
+            (None, None) => (x, x),
+        }
+    };
     // Block means of the laws over a block of B > 1 raw samples in contact, from the
     // quadratic δ(u) = δ̄ + δ̇·u·T/B + ½δ̈·(u² − σ²)·(T/B)² through the block means (u the
     // raw sample's offset from the block's centre, σ² = (B² − 1)/12 its variance over the
@@ -314,6 +326,18 @@ pub(super) fn design(
             lo = lo.min(data.block_min_depth_m[(b + 1).min(last)]);
             hi = hi.max(data.block_max_depth_m[(b + 1).min(last)]);
         }
+        // In a resampled log the block's samples interpolate the file's own samples on
+        // either side of it: where those straddle the contact, so do the block's forces.
+        if !native.is_empty() {
+            let first = ((start + i) * block) as f64;
+            let (a, _) = native_bracket(first);
+            let (_, z) = native_bracket(first + (block - 1) as f64);
+            for x in [a, z] {
+                let d = interp(&data.raw_depth_m, x - shift * block as f64);
+                lo = lo.min(d);
+                hi = hi.max(d);
+            }
+        }
         // So is a block in which the motion reverses when Coulomb friction is modelled.
         let reverses = has(Effect::CoulombFriction) && {
             let (a, b) = (
@@ -324,7 +348,37 @@ pub(super) fn design(
         };
         let (g, e, dv, c, de) = if block > 1 && ((lo < reference && hi > reference) || reverses) {
             let mut sum = (0.0, 0.0, 0.0, 0.0, 0.0);
+            // The laws at raw index x of the measured force (its position read `shift`
+            // blocks earlier).
+            let at = |x: f64| {
+                let raw = x - shift * block as f64;
+                let dj = interp(&data.raw_depth_m, raw) - reference;
+                if dj <= 0.0 {
+                    (0.0, 0.0, 0.0, 0.0, 0.0)
+                } else {
+                    terms(dj, interp(&data.rate_m_per_s, (raw - half) / block as f64))
+                }
+            };
             for j in 0..block {
+                if !native.is_empty() {
+                    // A resampled log: the measured force here is the resampler's straight
+                    // line between the file's samples on either side, so the model is
+                    // too (Kelvin-Voigt's force jumps by λ·v within that interval: a step
+                    // at the crossing put 4-7 noise deviations at each edge of a 124 Hz
+                    // record's taps, which a contact-point shift then took up).
+                    let x = ((start + i) * block + j) as f64;
+                    let (a, z) = native_bracket(x);
+                    let w = if z > a { (x - a) / (z - a) } else { 0.0 };
+                    let (ta, tz) = (at(a), at(z));
+                    sum = (
+                        sum.0 + ta.0 + w * (tz.0 - ta.0),
+                        sum.1 + ta.1 + w * (tz.1 - ta.1),
+                        sum.2 + ta.2 + w * (tz.2 - ta.2),
+                        sum.3 + ta.3 + w * (tz.3 - ta.3),
+                        sum.4 + ta.4 + w * (tz.4 - ta.4),
+                    );
+                    continue;
+                }
                 let raw = ((start + i) * block + j) as f64 - shift * block as f64;
                 // (Undelayed, a raw sample itself: the interpolation's value there.)
                 let dj = if shift == 0.0 {

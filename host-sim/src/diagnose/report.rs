@@ -343,10 +343,18 @@ pub fn markdown(
     let start = f.start;
     let _ = writeln!(
         out,
-        "Fit window {:.3}–{:.3} s: {} samples, each the mean of {} raw samples ({:.1} ms). Force offset removed {:.4e} N; contact position (first impact) {:.6e} m; noise of one fitting sample {:.3e} N.\n",
+        "Fit window {:.3}–{:.3} s: {} samples{}, each the mean of {} raw samples ({:.1} ms). Force offset removed {:.4e} N; contact position (first impact) {:.6e} m; noise of one fitting sample {:.3e} N.\n",
         data.time_s[start],
         data.time_s[data.len() - 1],
         f.samples,
+        match (data.len() - start).saturating_sub(f.samples) {
+            0 => String::new(),
+            k => format!(
+                " ({k} more left out, whose rate reads across a kink of the motion: a ramp \
+                 starting, stopping or reversing within a sample, where the rate is not \
+                 defined)"
+            ),
+        },
         data.block,
         1e3 * data.dt,
         data.force_offset_n,

@@ -19,18 +19,25 @@ fn contiguous_fold(fold: usize, n: usize) -> std::ops::Range<usize> {
 /// Blocked cross-validation with the nonlinear parameters and contact gates fixed: the
 /// linear coefficients are refitted without each fold and tested on it. A fold is a
 /// contiguous fifth of the fit window, or, with `block`, every fifth block of `block`
-/// samples ([`interleaved_block`]). Returns the held-out RMS error of each fold \[N\]
-/// (infinite where the fold cannot be fitted).
-pub(super) fn cross_validate(design: &Design, y: &[f64], block: Option<usize>) -> Vec<f64> {
+/// samples ([`interleaved_block`]). The samples flagged in `left_out` (the record's
+/// kinks; empty: none) are neither fitted nor tested. Returns the held-out RMS error of
+/// each fold \[N\] (infinite where the fold cannot be fitted).
+pub(super) fn cross_validate(
+    design: &Design,
+    y: &[f64],
+    block: Option<usize>,
+    left_out: &[bool],
+) -> Vec<f64> {
     let n = y.len();
+    let out = |i: usize| left_out.get(i).copied().unwrap_or(false);
     (0..FOLDS)
         .map(|f| {
             let held_out = |i: usize| match block {
                 Some(b) => (i / b.max(1)) % FOLDS == f,
                 None => contiguous_fold(f, n).contains(&i),
             };
-            let train: Vec<bool> = (0..n).map(|i| !held_out(i)).collect();
-            let held: Vec<usize> = (0..n).filter(|&i| held_out(i)).collect();
+            let train: Vec<bool> = (0..n).map(|i| !held_out(i) && !out(i)).collect();
+            let held: Vec<usize> = (0..n).filter(|&i| held_out(i) && !out(i)).collect();
             match least_squares(design, y, Some(&train), &[]) {
                 Some(s) => {
                     let e: f64 = held
@@ -302,7 +309,7 @@ pub fn edge_rss(
     }
     let rss = |f: &Fit| -> f64 {
         (start..n)
-            .filter(|&i| near[i])
+            .filter(|&i| near[i] && !data.kink[i])
             .map(|i| (data.force_n[i] - f.prediction[i - f.start]).powi(2))
             .sum()
     };
@@ -539,18 +546,18 @@ mod tests {
         let y: Vec<f64> = (0..n).map(|i| 1.0 + 0.5 * i as f64).collect();
         let exact = design(vec![vec![1.0; n], (0..n).map(|i| i as f64).collect()]);
         for block in [None, Some(1), Some(2)] {
-            let cv = cross_validate(&exact, &y, block);
+            let cv = cross_validate(&exact, &y, block, &[]);
             assert_eq!(cv.len(), FOLDS);
             assert!(cv.iter().all(|e| *e < 1e-6), "{block:?}: {cv:?}");
         }
         // A constant alone leaves each fold's departure from the others' mean: a
         // contiguous end fifth is the farthest from the rest.
         let constant = design(vec![vec![1.0; n]]);
-        let cv = cross_validate(&constant, &y, None);
+        let cv = cross_validate(&constant, &y, None, &[]);
         let worst = (0..FOLDS).max_by(|a, b| cv[*a].total_cmp(&cv[*b])).unwrap();
         assert!(worst == 0 || worst == FOLDS - 1, "{cv:?}");
         // Interleaved by 1: every fold spans the record, and the errors are alike.
-        let cv = cross_validate(&constant, &y, Some(1));
+        let cv = cross_validate(&constant, &y, Some(1), &[]);
         let lo = cv.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = cv.iter().copied().fold(0.0, f64::max);
         assert!(hi < 1.5 * lo, "{cv:?}");

@@ -273,9 +273,10 @@ fn evaluate(
             .collect(),
     };
     let block = data.block.max(1);
+    let counted = data.counted_from(start);
     let mut result = None;
     for _ in 0..iterations.max(1) {
-        let s = least_squares(&full, y, None, &touch)?;
+        let s = least_squares(&full, y, counted.as_deref(), &touch)?;
         let m = full.sums(&s.beta, true);
         let next: Vec<f64> = (0..n).map(|i| touch_weight(&full, &m, i, block)).collect();
         let done = next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
@@ -416,8 +417,12 @@ impl Problem<'_> {
     fn residual(&self, nl: &Nonlinear) -> Option<(Vec<f64>, f64)> {
         let (rss, design, solve, _) = self.evaluate(nl)?;
         let y = &self.data.force_n[self.start..];
+        let kink = &self.data.kink[self.start..];
         let r = (0..y.len())
             .map(|i| {
+                if kink[i] {
+                    return 0.0;
+                }
                 y[i] - design
                     .columns
                     .iter()
@@ -819,8 +824,7 @@ fn fit_on(
     let scale = problem.scale;
     let (rss, design, solve, _) = evaluate(data, start, effects, &nl, &scale, 4, None)?;
     let y = &data.force_n[start..];
-    let n = y.len();
-    let prediction: Vec<f64> = (0..n)
+    let prediction: Vec<f64> = (0..y.len())
         .map(|i| {
             design
                 .columns
@@ -830,22 +834,31 @@ fn fit_on(
                 .sum()
         })
         .collect();
-    let range = y.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-        - y.iter().copied().fold(f64::INFINITY, f64::min);
+    // The samples that count (the kinks' are out of the RSS, see `Prepared::kink`).
+    let kink = &data.kink[start..];
+    let n = data.samples_counted_from(start);
+    let counted = || y.iter().zip(kink).filter(|(_, k)| !**k).map(|(y, _)| *y);
+    let range =
+        counted().fold(f64::NEG_INFINITY, f64::max) - counted().fold(f64::INFINITY, f64::min);
     let nrmse = 100.0 * (rss / n as f64).sqrt() / range.max(1e-300);
-    let mean = y.iter().sum::<f64>() / n as f64;
-    let var = y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>();
+    let mean = counted().sum::<f64>() / n as f64;
+    let var = counted().map(|v| (v - mean) * (v - mean)).sum::<f64>();
     let vaf = 100.0 * (1.0 - rss / var.max(1e-300));
     let k = design.columns.len() + knobs_of(effects).len();
     let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + k as f64 * (n as f64).ln();
-    let cv = cross_validate(&design, y, data.cv_block);
+    let cv = cross_validate(&design, y, data.cv_block, kink);
     // Only a residual at the noise floor measures the noise's colour; a larger one is
     // the misfit's, which the held-out error judges (counted by its own colour, a model
     // one effect short leaves too few samples for any effect to pass).
     let residual_sample_fraction = if rss <= (NOISE_FLOOR_FIT * data.noise_n).powi(2) * n as f64
         && !super::scoring::free_space_shows_noise(data)
     {
-        let residual: Vec<f64> = y.iter().zip(&prediction).map(|(y, p)| y - p).collect();
+        let residual: Vec<f64> = y
+            .iter()
+            .zip(&prediction)
+            .zip(kink)
+            .map(|((y, p), k)| if *k { 0.0 } else { y - p })
+            .collect();
         super::scoring::residual_fraction(&residual)
     } else {
         1.0

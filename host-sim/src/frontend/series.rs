@@ -27,7 +27,7 @@ pub const KINK_FRACTION: f64 = 0.2;
 /// Largest share of the points a kink may remove: beyond it the motion is not made of
 /// smooth pieces at this sample rate (a tap sampled a few times per cycle) and every point
 /// is kept.
-pub const MAX_KINK_SHARE: f64 = 0.02;
+pub const MAX_KINK_SHARE: f64 = 0.05;
 
 /// Largest share of the moving samples (one-sample speed above
 /// [`crate::phases::LOADING_SPEED_FRACTION`] of the fast speed) that may be kinks: a ramp
@@ -222,7 +222,7 @@ fn jitter(b: usize, span: usize) -> usize {
 }
 
 /// The rate of each point: the native symmetric difference of [`symmetric_rate`] averaged
-/// over the point's run, with the half-width chosen as in [`rate_estimate`] (σ_x from the
+/// over the point's run, with the half-width chosen as in [`rate_and_kinks`] (σ_x from the
 /// native position's second differences, `sigma_x`; the 99.9th-percentile speed over the
 /// points), and
 /// that half-width in samples.
@@ -349,25 +349,19 @@ fn off_kinks(
 /// The rate of `position` by the shortest symmetric difference of [`RATE_HALF_WINDOWS_S`]
 /// whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
 /// [`MAX_RATE_NOISE`] of the 99.9th-percentile speed it gives (not the 99th: the ramps of
-/// a ramp-and-hold are 1-2 % of its samples).
-pub fn rate_estimate(time_s: &[f64], position: &[f64]) -> Vec<f64> {
+/// a ramp-and-hold are 1-2 % of its samples), and which samples' rate reads across a kink
+/// of the motion (`true`; by the rule of the front end's points, [`KINK_FRACTION`]: all
+/// `false` when there are none or too many to be kinks). Both of length `position.len()`.
+pub fn rate_and_kinks(time_s: &[f64], position: &[f64]) -> (Vec<f64>, Vec<bool>) {
     let n = time_s.len();
-    if n < 2 {
-        return vec![0.0; n];
-    }
     let sigma_x = crate::setup::noise_level(position);
-    let dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
-    let mut last = Vec::new();
-    for (k, h) in half_windows(dt) {
-        let rate: Vec<f64> = (0..n)
-            .map(|i| symmetric_difference(time_s, position, i, k))
-            .collect();
-        if quiet_enough(sigma_x, h, fast_speed(&rate)) {
-            return rate;
-        }
-        last = rate;
-    }
-    last
+    let starts: Vec<usize> = (0..n).collect();
+    let (rate, k) = native_rate(time_s, position, sigma_x, &starts, 1);
+    let kinks = match off_kinks(time_s, position, sigma_x, &starts, 1, k, &rate) {
+        Some(keep) => keep.iter().map(|k| !k).collect(),
+        None => vec![false; n],
+    };
+    (rate, kinks)
 }
 
 /// (x\[i+k\] − x\[i−k\]) / (t\[i+k\] − t\[i−k\]) with k the number of samples in
