@@ -36,12 +36,14 @@ pub struct Prepared {
     /// The sample's rate reads across a kink of the motion (a ramp starting, stopping or
     /// reversing within a sample: the symmetric difference there is neither side's rate,
     /// and a Kelvin-Voigt law turns it into a force λ·Δv/2 off, tens of noise deviations
-    /// on a 100 Hz ramp). Left out of every fit, score and count (the front end's rule,
-    /// `frontend::series::rate_and_kinks`: none when kinks would be more than 2 % of the
+    /// on a 100 Hz ramp). Left out of every fit and of what decides (RSS, N, NRMSE, BIC,
+    /// the folds, the contact edges, the speed spread of the one-speed rules); the
+    /// localisation and the residual plots still show them (the front end's rule,
+    /// `frontend::series::rate_and_kinks`: none when kinks would be more than 5 % of the
     /// samples or 10 % of the moving ones).
     pub kink: Vec<bool>,
-    /// The file's own sample times on the raw (1 kHz) index axis of a resampled log
-    /// (index = (t − t₀)·1 kHz, increasing); empty for a log at its native rate. The
+    /// The file's own sample times on the raw (1 kHz) index axis of a log resampled from a
+    /// file slower than 1 kHz (index = (t − t₀)·1 kHz, increasing); empty otherwise. The
     /// resampler draws straight lines between them, and the regressors model a block at a
     /// contact's edge the same way (`regressors::design`).
     pub native_raw_index: Vec<f64>,

@@ -149,9 +149,10 @@ pub struct Fit {
     pub nonlinear: Nonlinear,
     /// Parameters, SI, in the report's order.
     pub parameters: Vec<Estimate>,
-    /// Residual sum of squares \[N²\] over the fit window.
+    /// Residual sum of squares \[N²\] over the fit window's counted samples (not the
+    /// [`Prepared::kink`]s).
     pub rss: f64,
-    /// Samples in the fit window.
+    /// Counted samples in the fit window.
     pub samples: usize,
     /// NRMSE \[%\] of the fit (range-normalised).
     pub nrmse_percent: f64,
