@@ -361,7 +361,8 @@ pub fn estimate_file(
     let mut warnings = front.warnings.clone();
 
     // Which parameters the record determines, from the front end's joint fit.
-    let mut verdicts = identifiability::for_model(&front, model);
+    let along = identifiability::law_along_with_contact(&front, model);
+    let mut verdicts = identifiability::for_model(&front, &along, model);
     if matches!(
         model,
         ModelKind::Zener | ModelKind::Hammerstein1 | ModelKind::Hammerstein2
@@ -396,7 +397,7 @@ pub fn estimate_file(
             // The others without the damping's column: a stiffness collinear only with
             // the held damping is determined.
             let lambda = v.clone();
-            let mut others = identifiability::without_held(&front, model, &["lambda"]);
+            let mut others = identifiability::without_held(&front, &along, model, &["lambda"]);
             // Hunt-Crossley damping λ·δⁿ·δ̇ at one speed v is (λ·v)·δⁿ: when its column is
             // a combination of the others (a constant-speed stroke, a loading curve), k is
             // the stiffness at that speed, k + λ·v, not the elastic k alone.

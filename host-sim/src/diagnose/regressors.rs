@@ -101,6 +101,10 @@ fn interp(v: &[f64], x: f64) -> f64 {
     v[i] * (1.0 - f) + v[i + 1] * f
 }
 
+/// Material terms of one instant in [`design`]: (in contact, elastic, damping, Coulomb,
+/// depth).
+type Terms = (f64, f64, f64, f64, f64);
+
 pub(super) fn design(
     data: &Prepared,
     start: usize,
@@ -154,7 +158,7 @@ pub(super) fn design(
     );
     // Material terms of one instant: (in contact, elastic, damping, Coulomb) for the
     // depth δ_e below the (shifted, plastically set) contact point and rate v.
-    let terms = |de: f64, v: f64| -> (f64, f64, f64, f64, f64) {
+    let terms = |de: f64, v: f64| -> Terms {
         if de <= 0.0 {
             return (0.0, 0.0, 0.0, 0.0, 0.0);
         }
@@ -359,6 +363,9 @@ pub(super) fn design(
                     terms(dj, interp(&data.rate_m_per_s, (raw - half) / block as f64))
                 }
             };
+            // The laws at the last bracket's two file samples: a block of a file slower
+            // than 1 kHz has many raw samples between the same two.
+            let mut bracket: Option<((f64, f64), (Terms, Terms))> = None;
             for j in 0..block {
                 if !native.is_empty() {
                     // A resampled log: the measured force here is the resampler's straight
@@ -369,7 +376,14 @@ pub(super) fn design(
                     let x = ((start + i) * block + j) as f64;
                     let (a, z) = native_bracket(x);
                     let w = if z > a { (x - a) / (z - a) } else { 0.0 };
-                    let (ta, tz) = (at(a), at(z));
+                    let (ta, tz) = match bracket {
+                        Some((ends, terms)) if ends == (a, z) => terms,
+                        _ => {
+                            let terms = (at(a), at(z));
+                            bracket = Some(((a, z), terms));
+                            terms
+                        }
+                    };
                     sum = (
                         sum.0 + ta.0 + w * (tz.0 - ta.0),
                         sum.1 + ta.1 + w * (tz.1 - ta.1),

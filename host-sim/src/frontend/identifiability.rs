@@ -191,13 +191,12 @@ pub const MIN_ONLINE_FRACTION: f64 = 0.8;
 /// stands for the force there); Hammerstein γ1, γ2 (columns δ^γ2, γ1·δ^γ2·ln δ). Computed
 /// over the fitted points in contact where the law pushes (δ > 0, law force > 0), the
 /// elastic parameters' force uncertainty with the contact point's column beside them (see
-/// the module's doc). For the double stage the damping must also be determined within most [`ONLINE_WINDOW_S`] spans
-/// of the record. The relaxation filter of Zener and Hammerstein is judged by
+/// the module's doc); `along` is [`law_along_with_contact`] for `model`. For the double
+/// stage the damping must also be determined within most [`ONLINE_WINDOW_S`] spans of the
+/// record. The relaxation filter of Zener and Hammerstein is judged by
 /// [`relaxation_verdict`].
-pub fn for_model(front: &FrontEnd, model: ModelKind) -> Vec<Verdict> {
-    // The law along the points once, shared by the whole record and every window.
-    let along = law_along_with_contact(front, model);
-    let mut verdicts = whole_record(front, &along, model, None, &[]);
+pub fn for_model(front: &FrontEnd, along: &Along, model: ModelKind) -> Vec<Verdict> {
+    let mut verdicts = whole_record(front, along, model, None, &[]);
     let Some(j) = verdicts.iter().position(|v| v.name == "lambda") else {
         return verdicts;
     };
@@ -210,7 +209,7 @@ pub fn for_model(front: &FrontEnd, model: ModelKind) -> Vec<Verdict> {
     let mut start = t0;
     while start < t1 {
         let window = (start, start + ONLINE_WINDOW_S);
-        let v = whole_record(front, &along, model, Some(window), &[]);
+        let v = whole_record(front, along, model, Some(window), &[]);
         let points = v.first().map_or(0, |v| v.points);
         if points >= 20 {
             total += points;
@@ -235,14 +234,13 @@ pub fn for_model(front: &FrontEnd, model: ModelKind) -> Vec<Verdict> {
 /// Verdicts on the parameters of `model` other than `held` (held at a default: their
 /// columns leave the regression, so a parameter collinear only with a held one is
 /// determined).
-pub fn without_held(front: &FrontEnd, model: ModelKind, held: &[&str]) -> Vec<Verdict> {
-    whole_record(
-        front,
-        &law_along_with_contact(front, model),
-        model,
-        None,
-        held,
-    )
+pub fn without_held(
+    front: &FrontEnd,
+    along: &Along,
+    model: ModelKind,
+    held: &[&str],
+) -> Vec<Verdict> {
+    whole_record(front, along, model, None, held)
 }
 
 /// As [`for_model`] over the whole record, or over the points in `window` (start, end)
@@ -319,7 +317,8 @@ fn whole_record(
         .unzip();
     let force_rms = rms(&force);
     let mut v = verdicts(&names, &columns, front.noise_n, front.noise_rho1, force_rms);
-    if let Some(c) = &along.3 {
+    // (Over a window only λ's verdict is read, which the contact point does not enter.)
+    if let (Some(c), None) = (&along.3, window) {
         let c = col(&|i| c[i]);
         let c_rms = rms(&c);
         let (mut names, mut columns) = (names, columns);
@@ -380,7 +379,7 @@ const CONTACT: &str = "contact_position_m";
 /// it is far less certain than a fit with the contact point given would say. Kelvin-Voigt
 /// is left without it: its force jumps by λ·v at impact, which places the contact point
 /// to a sample and which a derivative cannot express.
-fn law_along_with_contact(front: &FrontEnd, model: ModelKind) -> Along {
+pub fn law_along_with_contact(front: &FrontEnd, model: ModelKind) -> Along {
     let (depth, rate, force) = front.law_along();
     let deepest = depth.iter().copied().fold(0.0f64, f64::max);
     let h = 1e-4 * deepest;
@@ -402,8 +401,9 @@ fn law_along_with_contact(front: &FrontEnd, model: ModelKind) -> Along {
     (depth, rate, force, contact)
 }
 
-/// [`law_along_with_contact`]'s depth, rate, force and contact-point column.
-type Along = (Vec<f64>, Vec<f64>, Vec<f64>, Option<Vec<f64>>);
+/// [`law_along_with_contact`]'s depth, rate, force and contact-point column, computed once
+/// and shared by [`for_model`], its windows and [`without_held`].
+pub type Along = (Vec<f64>, Vec<f64>, Vec<f64>, Option<Vec<f64>>);
 
 /// Whether the record can show relaxation (the Zener and Hammerstein filter): it needs
 /// the force to evolve at a (nearly) constant depth — a hold in contact of at least
@@ -545,7 +545,8 @@ mod tests {
             let front =
                 super::super::analyse(&t, &x, &f, LawFamily::HuntCrossley, &Default::default())
                     .unwrap();
-            for_model(&front, ModelKind::HuntCrossleySingleStage)
+            let model = ModelKind::HuntCrossleySingleStage;
+            for_model(&front, &law_along_with_contact(&front, model), model)
         };
         let coloured = verdict(0.2, 0.93);
         let k = coloured.iter().find(|v| v.name == "k").unwrap();
