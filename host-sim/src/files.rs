@@ -783,7 +783,7 @@ pub fn prepare_file(
             prepared.time_s[prepared.len() - 1]
         ));
     }
-    let kinks = prepared.kink.iter().filter(|k| **k).count();
+    let kinks = prepared.kinks();
     notes.push(format!(
         "fitted on {} samples of {:.1} ms (block means of the 1 kHz record){}",
         prepared.len(),
@@ -797,6 +797,15 @@ pub fn prepare_file(
             String::new()
         }
     ));
+    if prepared.leading_left_out > 0 {
+        notes.push(format!(
+            "the record begins in contact: its first {} samples ({:.0} ms, the longest \
+             force-channel delay tried) are left out of every fit and score, since a delayed \
+             model would predict them from motion before the record",
+            prepared.leading_left_out,
+            1e3 * prepared.leading_left_out as f64 * prepared.dt
+        ));
+    }
     Ok(Prepare {
         record: loaded.into_uniform(),
         notes,
@@ -835,7 +844,7 @@ pub fn simulate_spec(
     let pairs = measured
         .iter()
         .zip(&force_n)
-        .zip(&data.kink[data.fit_start()..])
+        .zip(&data.left_out[data.fit_start()..])
         .filter(|(_, kink)| !**kink)
         .map(|((m, f), _)| (*m, *f));
     let nrmse_percent = crate::simulate::nrmse_percent_of(pairs).with_context(|| {

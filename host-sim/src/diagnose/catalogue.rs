@@ -241,7 +241,7 @@ impl Knob {
             ),
             Knob::Delay => (
                 -(2.0 * scale.dt_s).max(0.01),
-                (5.0 * scale.dt_s).max(0.05),
+                longest_delay_s(scale.dt_s),
                 false,
             ),
             Knob::ContactShift => (-0.25 * l, 0.25 * l, false),
@@ -407,6 +407,13 @@ pub enum Determination {
     /// the force by the constant κ·Δ, which the tare takes (κ·(δ − Δ) + F0 = κ·δ + (F0 −
     /// κ·Δ)), so the tare and the contact point trade along a line of equal fit.
     CombinationOnly(Param),
+    /// Only the damping's combination λ − κ·τ with the named parameter (the delay τ or
+    /// the damping λ) is determined: on a record that never leaves contact under a linear
+    /// elastic law a delayed force is, to first order, a change of the damping,
+    /// κ·δ(t − τ) + λ·δ̇(t − τ) ≈ κ·δ + (λ − κ·τ)·δ̇, and τ and λ part only at second order
+    /// (a term (κτ²/2 − λτ)·δ̈ a few thousandths of the force; on an independent
+    /// generator's sines the RSS varied by 0.04 % between delays of 2 and 5 ms).
+    DampingCombination(Param),
 }
 
 /// A fitted parameter: SI value and standard error (NaN where not estimated, 0 for a
@@ -421,6 +428,13 @@ pub struct Estimate {
     pub standard_error: f64,
     /// Whether the record determined the value.
     pub determination: Determination,
+}
+
+/// The longest force-channel delay the catalogue searches \[s\] on fitting samples
+/// `dt_s` apart: 50 ms, or 5 samples where they are longer than 10 ms (the upper bound of
+/// [`Knob::Delay`]'s range).
+pub fn longest_delay_s(dt_s: f64) -> f64 {
+    (5.0 * dt_s).max(0.05)
 }
 
 /// Typical magnitudes of a log, for scaling and search bounds.

@@ -6,6 +6,7 @@ use estimator_core::conditioning::{
     ForceTare, ImpactConfig, ImpactDetector, RecontactPolicy, TareConfig,
 };
 
+use super::catalogue::longest_delay_s;
 use crate::phases::{Phase, PhaseClassifier};
 
 /// Fitting samples are block averages over about this long \[s\] (200 Hz from a 1 kHz
@@ -33,15 +34,30 @@ pub struct Prepared {
     pub rate_m_per_s: Vec<f64>,
     /// δ̈ \[m/s²\] (second difference).
     pub accel_m_per_s2: Vec<f64>,
-    /// The sample's rate reads across a kink of the motion (a ramp starting, stopping or
-    /// reversing within a sample: the symmetric difference there is neither side's rate,
-    /// and a Kelvin-Voigt law turns it into a force λ·Δv/2 off, tens of noise deviations
-    /// on a 100 Hz ramp). Left out of every fit and of what decides (RSS, N, NRMSE, BIC,
-    /// the folds, the contact edges, the speed spread of the one-speed rules); the
-    /// localisation and the residual plots still show them (the front end's rule,
-    /// `frontend::series::rate_and_kinks`: none when kinks would be more than 5 % of the
-    /// samples or 10 % of the moving ones).
-    pub kink: Vec<bool>,
+    /// The sample is left out of every fit and of what decides (RSS, N, NRMSE, BIC, the
+    /// folds, the contact edges, the speed spread of the one-speed rules); the
+    /// localisation and the residual plots still show it. Two kinds:
+    /// - its rate reads across a kink of the motion (a ramp starting, stopping or
+    ///   reversing within a sample: the symmetric difference there is neither side's
+    ///   rate, and a Kelvin-Voigt law turns it into a force λ·Δv/2 off, tens of noise
+    ///   deviations on a 100 Hz ramp; the front end's rule,
+    ///   `frontend::series::rate_and_kinks`: none when kinks would be more than 5 % of the
+    ///   samples or 10 % of the moving ones), [`Prepared::kinks`] of them;
+    /// - the first [`Prepared::leading_left_out`] samples of a record that begins in
+    ///   contact, as long as the longest delay the catalogue searches
+    ///   ([`longest_delay_s`], 50 ms at 1 kHz): a model with a force-channel delay τ
+    ///   predicts the force at t from the motion at t − τ, which for the record's first τ
+    ///   is before the record, unknown, and every model is scored on the same samples.
+    ///   (What a delayed channel shows there depends on the instrument: the force before
+    ///   the record, or a delay line that starts empty. An independent generator's delays,
+    ///   `np.concatenate([zeros(k), f[:-k]])`, start at zero force under a probe 1.5 mm
+    ///   deep: its sines pressed in contact ended at 1.2-1.8 % NRMSE, 3-8× their noise,
+    ///   nearly all of it two 14 N residuals among 4000.) The models' states (a
+    ///   relaxation's memory) still run from the record's first sample.
+    pub left_out: Vec<bool>,
+    /// Leading samples of [`Prepared::left_out`] (a record that begins in contact), 0
+    /// otherwise.
+    pub leading_left_out: usize,
     /// The file's own sample times on the raw (1 kHz) index axis of a log resampled from a
     /// file slower than 1 kHz (index = (t − t₀)·1 kHz, increasing); empty otherwise. The
     /// resampler draws straight lines between them, and the regressors model a block at a
@@ -295,11 +311,19 @@ fn assemble(
     let block_time: Vec<f64> = (0..blocks).map(|b| b as f64 * dt).collect();
     let (rate, kink) = crate::frontend::series::rate_and_kinks(&block_time, &depth);
     // (Out of contact the force does not read the rate: a kink there costs nothing.)
-    let kink: Vec<bool> = kink
+    let mut left_out: Vec<bool> = kink
         .iter()
         .zip(&in_contact)
         .map(|(k, c)| *k && *c)
         .collect();
+    let leading_left_out = if in_contact.first() == Some(&true) {
+        ((longest_delay_s(dt) / dt).ceil() as usize).min(blocks.saturating_sub(1))
+    } else {
+        0
+    };
+    for flag in &mut left_out[..leading_left_out] {
+        *flag = true;
+    }
     let accel: Vec<f64> = (0..blocks)
         .map(|b| {
             if b == 0 || b + 1 >= blocks {
@@ -327,7 +351,8 @@ fn assemble(
         depth_m: depth,
         rate_m_per_s: rate,
         accel_m_per_s2: accel,
-        kink,
+        left_out,
+        leading_left_out,
         native_raw_index: Vec::new(),
         force_n: force,
         contact: in_contact,
@@ -493,7 +518,7 @@ impl Prepared {
             v.truncate(end);
         }
         self.contact.truncate(end);
-        self.kink.truncate(end);
+        self.left_out.truncate(end);
         self.phase.truncate(end);
         self.raw_depth_m.truncate(end * self.block);
         self.raw_depth_prefix.truncate(end * self.block + 1);
@@ -501,22 +526,29 @@ impl Prepared {
         true
     }
 
-    /// Which samples of the fit window from `start` count (not [`Prepared::kink`]s), or
+    /// Which samples of the fit window from `start` count (not the [`Prepared::left_out`] ones), or
     /// `None` when all do.
     pub fn counted_from(&self, start: usize) -> Option<Vec<bool>> {
-        let kink = &self.kink[start.min(self.kink.len())..];
-        kink.iter()
+        let out = &self.left_out[start.min(self.left_out.len())..];
+        out.iter()
             .any(|k| *k)
-            .then(|| kink.iter().map(|k| !k).collect())
+            .then(|| out.iter().map(|k| !k).collect())
     }
 
     /// Samples of the fit window from `start` that count.
     pub fn samples_counted_from(&self, start: usize) -> usize {
         self.len().saturating_sub(start)
-            - self.kink[start.min(self.kink.len())..]
+            - self.left_out[start.min(self.left_out.len())..]
                 .iter()
                 .filter(|k| **k)
                 .count()
+    }
+
+    /// Samples left out for a kink of the motion (the rest of [`Prepared::left_out`] are
+    /// the [`Prepared::leading_left_out`] ones).
+    pub fn kinks(&self) -> usize {
+        self.left_out.iter().filter(|k| **k).count()
+            - self.leading_left_out.min(self.left_out.len())
     }
 
     /// Number of samples.

@@ -167,6 +167,10 @@ pub struct Candidate {
     /// A delay the record's contact edges do not show ([`scoring::edge_rss`]): never
     /// significant.
     pub unseen_at_contact_edges: bool,
+    /// A delay on a record that never leaves contact whose current model keeps a
+    /// positive damping: there a delay is a change of the damping (see `workflow`):
+    /// never significant.
+    pub a_damping_change_in_contact: bool,
     /// A delay under half a fitting sample ([`MIN_DELAY_SAMPLES`]): never significant.
     pub under_half_a_sample: bool,
 }
@@ -442,6 +446,17 @@ fn under_half_a_sample(data: &Prepared, fit: &Fit) -> bool {
             .is_some_and(|tau| tau.abs() < MIN_DELAY_SAMPLES * data.dt)
 }
 
+/// Whether a fit's damping coefficient λ was held at its physical bound 0 by the
+/// least squares' active set (the record asks for a negative one), not by the
+/// identifiability verdict ([`Determination::Held`]).
+fn damping_at_its_bound(fit: &Fit) -> bool {
+    fit.parameters.iter().any(|p| {
+        p.param == Param::Lambda
+            && p.value == 0.0
+            && p.determination == catalogue::Determination::Determined
+    })
+}
+
 /// Largest ratio of a delay's residual sum of squares near the record's contact edges to
 /// the current model's there for the delay to be named (see `workflow`; [`scoring::edge_rss`]).
 /// Chosen on the project's generators: their real delays reach 0.006-0.07 once the other
@@ -590,14 +605,31 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     // only takes up another misfit: a sharp reversal, an impact, a mass
                     // on a chirp (the structure sweep's clean taps, seeds 3013 and 3018;
                     // the independent generator's inertia chirps).
+                    //
+                    // A record without contact edges shows a delay in one way: as a lag
+                    // of the force behind the motion that no passive material has. In
+                    // contact a delay τ is, to first order, a change −κ·τ of the damping
+                    // (F(t − τ) ≈ F − τ·dF/dt), so a delay is told from damping only where
+                    // the record asks for a damping below zero: the current model's
+                    // damping held at its physical bound 0 and a positive τ (a negative
+                    // one, a lead, is a damping the model has). Even then only λ − κ·τ is
+                    // determined, not τ (`Determination::DampingCombination`). The
+                    // independent generator's sines pressed in contact were left at 3-8×
+                    // their noise before (18 of its 20 have κ·τ > λ; the other two are
+                    // a damping to the record, and are not named).
                     let tau = scored.fit.parameter(Param::DelayS).unwrap_or(0.0);
                     let half_width = 2.0 * tau.abs() + 2.0 * data.dt;
                     let edges = scoring::edge_rss(data, &scored.fit, &current, half_width);
-                    let shown = matches!(edges, Some((with, without))
-                        if with <= EDGE_RSS_MAX_RATIO * without);
-                    if !shown {
-                        scored.significant = false;
-                        scored.unseen_at_contact_edges = true;
+                    match edges {
+                        Some((with, without)) if with > EDGE_RSS_MAX_RATIO * without => {
+                            scored.significant = false;
+                            scored.unseen_at_contact_edges = true;
+                        }
+                        None if !(tau > 0.0 && damping_at_its_bound(&current)) => {
+                            scored.significant = false;
+                            scored.a_damping_change_in_contact = true;
+                        }
+                        _ => {}
                     }
                 }
                 // (After the edge test, which refuses most of these first: every
@@ -807,6 +839,7 @@ fn joint_pair(
             c.physical
                 && !c.nested
                 && !c.unseen_at_contact_edges
+                && !c.a_damping_change_in_contact
                 && !c.unseen_in_free_space
                 && !c.under_half_a_sample
                 && c.replaces.is_none()

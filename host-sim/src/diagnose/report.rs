@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
-use super::catalogue::{Determination, Estimate};
+use super::catalogue::{Determination, Estimate, Param};
 use super::data::Prepared;
 use super::solver::Fit;
 use super::{Candidate, Diagnosis, Localisation, Options, PHASE_ORDER};
@@ -50,6 +50,27 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
             other.id(),
             p.value * fit.parameter(other).unwrap_or(f64::NAN)
         )),
+        Determination::DampingCombination(other) => {
+            let param = |q: Param| fit.parameter(q).unwrap_or(f64::NAN);
+            let (kappa, lambda, tau) = (
+                param(Param::Kappa),
+                param(Param::Lambda),
+                param(Param::DelayS),
+            );
+            let combination = lambda - kappa * tau;
+            Some(format!(
+                "the record never leaves contact, where a delay τ is to first order a change −κ·τ of the damping: only λ − κ·τ is determined ({combination:.4e} N·s/m), not each (with {}){}; a lift-off out of contact determines them",
+                other.id(),
+                if combination < 0.0 {
+                    format!(
+                        "; a passive damping (λ ≥ 0) puts the delay at {:.4e} s or more",
+                        -combination / kappa
+                    )
+                } else {
+                    String::new()
+                }
+            ))
+        }
         Determination::CombinationOnly(other) => Some(format!(
             "the record never leaves contact and the elastic law is linear: a shift of the contact point changes the force by a constant, which the tare takes, so only their combination is determined, not each (with {}); a lift-off out of contact determines them",
             other.id()
@@ -217,6 +238,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "no (the free-space force shows no such trend)"
             } else if c.unseen_at_contact_edges {
                 "no (the contact onsets and lift-offs do not show it)"
+            } else if c.a_damping_change_in_contact {
+                "no (the record never leaves contact, where a delay is a change of the damping, and the damping stays positive)"
             } else if c.under_half_a_sample {
                 "no (under half a sample: the rate's own discretization at a reversal or onset)"
             } else {
@@ -347,13 +370,28 @@ pub fn markdown(
         data.time_s[start],
         data.time_s[data.len() - 1],
         f.samples,
-        match (data.len() - start).saturating_sub(f.samples) {
-            0 => String::new(),
-            k => format!(
-                " ({k} more left out, whose rate reads across a kink of the motion: a ramp \
-                 starting, stopping or reversing within a sample, where the rate is not \
-                 defined)"
-            ),
+        {
+            let leading = data.leading_left_out.saturating_sub(start);
+            let kinks = (data.len() - start).saturating_sub(f.samples + leading);
+            let mut why = Vec::new();
+            if kinks > 0 {
+                why.push(format!(
+                    "{kinks} whose rate reads across a kink of the motion: a ramp starting, \
+                     stopping or reversing within a sample, where the rate is not defined"
+                ));
+            }
+            if leading > 0 {
+                why.push(format!(
+                    "the first {leading}: the record begins in contact, and a model with a \
+                     delay as long as the longest tried would predict them from motion \
+                     before the record"
+                ));
+            }
+            if why.is_empty() {
+                String::new()
+            } else {
+                format!(" ({} more left out: {})", kinks + leading, why.join("; "))
+            }
         },
         data.block,
         1e3 * data.dt,

@@ -309,7 +309,7 @@ pub fn edge_rss(
     }
     let rss = |f: &Fit| -> f64 {
         (start..n)
-            .filter(|&i| near[i] && !data.kink[i])
+            .filter(|&i| near[i] && !data.left_out[i])
             .map(|i| (data.force_n[i] - f.prediction[i - f.start]).powi(2))
             .sum()
     };
@@ -431,6 +431,7 @@ pub(super) fn score(
         nested,
         unseen_in_free_space: false,
         unseen_at_contact_edges: false,
+        a_damping_change_in_contact: false,
         under_half_a_sample: false,
     }
 }

@@ -150,7 +150,7 @@ pub struct Fit {
     /// Parameters, SI, in the report's order.
     pub parameters: Vec<Estimate>,
     /// Residual sum of squares \[N²\] over the fit window's counted samples (not the
-    /// [`Prepared::kink`]s).
+    /// [`Prepared::left_out`] ones).
     pub rss: f64,
     /// Counted samples in the fit window.
     pub samples: usize,
@@ -418,7 +418,7 @@ impl Problem<'_> {
     fn residual(&self, nl: &Nonlinear) -> Option<(Vec<f64>, f64)> {
         let (rss, design, solve, _) = self.evaluate(nl)?;
         let y = &self.data.force_n[self.start..];
-        let kink = &self.data.kink[self.start..];
+        let kink = &self.data.left_out[self.start..];
         let r = (0..y.len())
             .map(|i| {
                 if kink[i] {
@@ -835,8 +835,8 @@ fn fit_on(
                 .sum()
         })
         .collect();
-    // The samples that count (the kinks' are out of the RSS, see `Prepared::kink`).
-    let kink = &data.kink[start..];
+    // The samples that count (the left-out ones are out of the RSS, see `Prepared::left_out`).
+    let kink = &data.left_out[start..];
     let n = data.samples_counted_from(start);
     let counted = || y.iter().zip(kink).filter(|(_, k)| !**k).map(|(y, _)| *y);
     let range =
@@ -1005,7 +1005,8 @@ fn name_parameters(
 /// a relaxation's fraction when its rate sits at the slow bound (only c·ν is fitted
 /// then), and the tare and the contact point of a linear elastic law on a fit window
 /// that never leaves contact (`in_contact_throughout`: only their combination is
-/// fitted). Their standard errors become NaN (not reported).
+/// fitted), and there also a delay and the plain damping (only λ − κ·τ is fitted). Their
+/// standard errors become NaN (not reported).
 fn mark_undetermined(
     out: &mut [Estimate],
     effects: &BTreeSet<Effect>,
@@ -1047,6 +1048,20 @@ fn mark_undetermined(
         mark(
             Param::ContactPositionM,
             Determination::CombinationOnly(Param::TareN),
+        );
+    }
+    if in_contact_throughout
+        && linear
+        && effects.contains(&Effect::TimeDelay)
+        && !effects.contains(&Effect::DepthDependentDamping)
+    {
+        mark(
+            Param::DelayS,
+            Determination::DampingCombination(Param::Lambda),
+        );
+        mark(
+            Param::Lambda,
+            Determination::DampingCombination(Param::DelayS),
         );
     }
     if effects.contains(&Effect::Relaxation)
