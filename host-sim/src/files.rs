@@ -819,8 +819,8 @@ pub struct SpecSimulation {
     pub prepare: Prepare,
     /// The model's force \[N\] from [`crate::diagnose::data::Prepared::fit_start`] on.
     pub force_n: Vec<f64>,
-    /// NRMSE \[%\] of the model against the file's force over those samples (but those
-    /// whose rate reads across a kink of the motion, as the diagnosis scores them).
+    /// NRMSE \[%\] of the model against the file's force over those samples (but the
+    /// ones the diagnosis leaves out of its scores, `Prepared::left_out`).
     pub nrmse_percent: f64,
 }
 
@@ -840,12 +840,12 @@ pub fn simulate_spec(
     let data = &prepare.prepared;
     let force_n = spec.force_n(data);
     let measured = &data.force_n[data.fit_start()..];
-    // Over the samples the diagnosis scores: not those whose rate reads across a kink.
+    // Over the samples the diagnosis scores (not the `Prepared::left_out` ones).
     let pairs = measured
         .iter()
         .zip(&force_n)
         .zip(&data.left_out[data.fit_start()..])
-        .filter(|(_, kink)| !**kink)
+        .filter(|(_, out)| !**out)
         .map(|((m, f), _)| (*m, *f));
     let nrmse_percent = crate::simulate::nrmse_percent_of(pairs).with_context(|| {
         format!(

@@ -317,7 +317,8 @@ fn assemble(
         .map(|(k, c)| *k && *c)
         .collect();
     let leading_left_out = if in_contact.first() == Some(&true) {
-        ((longest_delay_s(dt) / dt).ceil() as usize).min(blocks.saturating_sub(1))
+        // (Less a hair: a dt from time stamps a rounding above the exact one.)
+        ((longest_delay_s(dt) / dt - 1e-9).ceil() as usize).min(blocks.saturating_sub(1))
     } else {
         0
     };
@@ -559,5 +560,43 @@ impl Prepared {
     /// `true` when empty.
     pub fn is_empty(&self) -> bool {
         self.time_s.is_empty()
+    }
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+
+    /// A 1 kHz log of `position(t)` over `seconds` (contact at 0, a linear spring of
+    /// 1 kN/m; also the scoring's tests').
+    pub(in crate::diagnose) fn log(seconds: f64, position: impl Fn(f64) -> f64) -> Prepared {
+        let t: Vec<f64> = (0..(seconds * 1e3) as usize)
+            .map(|i| i as f64 * 1e-3)
+            .collect();
+        let x: Vec<f64> = t.iter().map(|&t| position(t)).collect();
+        let f: Vec<f64> = x.iter().map(|&x| 1e3 * x.max(0.0)).collect();
+        prepare_known(&t, &x, &f, 0.0, 0.0, 1e-3, 1).expect("prepared")
+    }
+
+    /// A record that begins in contact leaves out as many leading fitting samples as the
+    /// longest delay tried spans (50 ms), whatever the block; one that begins out of
+    /// contact leaves none; the kinks are counted apart from them.
+    #[test]
+    fn a_record_that_begins_in_contact_leaves_out_the_longest_delay() {
+        let pressed = log(4.0, |t| 1e-3 + 0.5e-3 * (6.0 * t).sin());
+        let leading = pressed.leading_left_out;
+        assert_eq!(leading, (0.05 / pressed.dt).round() as usize);
+        assert!(pressed.left_out[..leading].iter().all(|out| *out));
+        assert_eq!(
+            pressed.kinks(),
+            pressed.left_out[leading..].iter().filter(|k| **k).count()
+        );
+        assert_eq!(
+            pressed.samples_counted_from(0),
+            pressed.len() - leading - pressed.kinks()
+        );
+        let approached = log(4.0, |t| 1e-3 * (t - 1.0));
+        assert_eq!(approached.leading_left_out, 0);
+        assert!(!approached.left_out[0]);
     }
 }

@@ -45,7 +45,8 @@ fn spread_at_depth_where(
     keep: impl Fn(usize) -> bool,
 ) -> f64 {
     let mut samples: Vec<(f64, f64)> = (start..data.len())
-        // (Not at a kink, where the rate is between the two sides': `Prepared::left_out`.)
+        // (Not at a kink, where the rate is between the two sides', nor another sample
+        // the scores leave out: `Prepared::left_out`.)
         .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0 && !data.left_out[i] && keep(i))
         .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
         .collect();

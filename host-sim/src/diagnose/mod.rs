@@ -167,9 +167,9 @@ pub struct Candidate {
     /// A delay the record's contact edges do not show ([`scoring::edge_rss`]): never
     /// significant.
     pub unseen_at_contact_edges: bool,
-    /// A delay on a record that never leaves contact whose current model keeps a
-    /// positive damping: there a delay is a change of the damping (see `workflow`):
-    /// never significant.
+    /// A delay on a record that never leaves contact that a passive damping explains
+    /// (the current model's damping not held at 0, or τ ≤ 0): there a delay is a change
+    /// of the damping (see `workflow`): never significant.
     pub a_damping_change_in_contact: bool,
     /// A delay under half a fitting sample ([`MIN_DELAY_SAMPLES`]): never significant.
     pub under_half_a_sample: bool,
@@ -448,7 +448,10 @@ fn under_half_a_sample(data: &Prepared, fit: &Fit) -> bool {
 
 /// Whether a fit's damping coefficient λ was held at its physical bound 0 by the
 /// least squares' active set (the record asks for a negative one), not by the
-/// identifiability verdict ([`Determination::Held`]).
+/// identifiability verdict ([`Determination::Held`]). (The active set holds the most
+/// negative coefficient and never releases it, so with more non-negative columns than
+/// the baseline's, a mass or friction, "held" is this greedy order's verdict, not
+/// necessarily the exact non-negative optimum's.)
 fn damping_at_its_bound(fit: &Fit) -> bool {
     fit.parameters.iter().any(|p| {
         p.param == Param::Lambda
@@ -593,15 +596,14 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     duration_s,
                     noise_fraction,
                 );
-                if e == Effect::TimeDelay && scored.significant {
+                if e == Effect::TimeDelay {
                     // A force channel delayed by τ rises τ after each contact onset and
                     // falls τ after each lift-off: where the undelayed model misses
                     // most, and where nothing else in the catalogue moves the force in
                     // time. So a delay must fit there: the residual within 2|τ| + 2
                     // blocks of the detector's onsets and lift-offs at most
-                    // EDGE_RSS_MAX_RATIO of the current model's (a record without one
-                    // does not show it: in contact a delay is a phase that the damping
-                    // and a mass take up to second order). A delay that fits elsewhere
+                    // EDGE_RSS_MAX_RATIO of the current model's (a record without one:
+                    // below). A delay that fits elsewhere
                     // only takes up another misfit: a sharp reversal, an impact, a mass
                     // on a chirp (the structure sweep's clean taps, seeds 3013 and 3018;
                     // the independent generator's inertia chirps).
@@ -616,12 +618,23 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     // determined, not τ (`Determination::DampingCombination`). The
                     // independent generator's sines pressed in contact were left at 3-8×
                     // their noise before (18 of its 20 have κ·τ > λ; the other two are
-                    // a damping to the record, and are not named).
+                    // a damping to the record, and are not named). That one is judged
+                    // for every delay, significant or not, so that no pair takes a delay
+                    // the record cannot tell from damping; the edge rule only for the
+                    // significant ones (a delay paired for its BIC alone is not
+                    // edge-tested: left as it was).
                     let tau = scored.fit.parameter(Param::DelayS).unwrap_or(0.0);
                     let half_width = 2.0 * tau.abs() + 2.0 * data.dt;
                     let edges = scoring::edge_rss(data, &scored.fit, &current, half_width);
                     match edges {
-                        Some((with, without)) if with > EDGE_RSS_MAX_RATIO * without => {
+                        // (A NaN ratio is refused too: not shown.)
+                        Some((with, without))
+                            if scored.significant
+                                && !matches!(
+                                    with.partial_cmp(&(EDGE_RSS_MAX_RATIO * without)),
+                                    Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+                                ) =>
+                        {
                             scored.significant = false;
                             scored.unseen_at_contact_edges = true;
                         }

@@ -239,7 +239,7 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
             } else if c.unseen_at_contact_edges {
                 "no (the contact onsets and lift-offs do not show it)"
             } else if c.a_damping_change_in_contact {
-                "no (the record never leaves contact, where a delay is a change of the damping, and the damping stays positive)"
+                "no (the record never leaves contact, where a delay is a change of the damping, and a passive damping explains this one)"
             } else if c.under_half_a_sample {
                 "no (under half a sample: the rate's own discretization at a reversal or onset)"
             } else {

@@ -20,7 +20,8 @@ fn contiguous_fold(fold: usize, n: usize) -> std::ops::Range<usize> {
 /// linear coefficients are refitted without each fold and tested on it. A fold is a
 /// contiguous fifth of the fit window, or, with `block`, every fifth block of `block`
 /// samples ([`interleaved_block`]). The samples flagged in `left_out` (the record's
-/// kinks; empty: none) are neither fitted nor tested. Returns the held-out RMS error of
+/// `Prepared::left_out`: kinks, a record's leading samples; empty: none) are neither
+/// fitted nor tested. Returns the held-out RMS error of
 /// each fold \[N\] (infinite where the fold cannot be fitted).
 pub(super) fn cross_validate(
     design: &Design,
@@ -451,6 +452,7 @@ pub fn physical(fit: &Fit, duration_s: f64) -> bool {
 
 #[cfg(test)]
 mod tests {
+    use super::super::data::tests::log;
     use super::*;
     use rand::rngs::StdRng;
     use rand::SeedableRng;
@@ -485,16 +487,6 @@ mod tests {
             .collect();
         let detrended = residual_fraction(&trend);
         assert!(detrended > 0.8, "{detrended}");
-    }
-
-    /// A 1 kHz log of `position(t)` over `seconds` (contact at 0, Kelvin-Voigt force).
-    fn log(seconds: f64, position: impl Fn(f64) -> f64) -> Prepared {
-        let t: Vec<f64> = (0..(seconds * 1e3) as usize)
-            .map(|i| i as f64 * 1e-3)
-            .collect();
-        let x: Vec<f64> = t.iter().map(|&t| position(t)).collect();
-        let f: Vec<f64> = x.iter().map(|&x| 1e3 * x.max(0.0)).collect();
-        super::super::data::prepare_known(&t, &x, &f, 0.0, 0.0, 1e-3, 1).expect("prepared")
     }
 
     /// The folds interleave where the probe moves in fewer fifths than the acceptance

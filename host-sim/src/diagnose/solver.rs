@@ -1052,6 +1052,7 @@ fn mark_undetermined(
     }
     if in_contact_throughout
         && linear
+        && !hold_damping
         && effects.contains(&Effect::TimeDelay)
         && !effects.contains(&Effect::DepthDependentDamping)
     {
