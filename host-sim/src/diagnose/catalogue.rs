@@ -408,7 +408,8 @@ pub enum Determination {
     /// κ·Δ)), so the tare and the contact point trade along a line of equal fit.
     CombinationOnly(Param),
     /// Only the damping's combination λ − κ·τ with the named parameter (the delay τ or
-    /// the damping λ) is determined: on a record that never leaves contact under a linear
+    /// the damping λ) is determined: on a record that never leaves contact (or whose
+    /// contact edges do not show the delay, [`Nonlinear::delay_as_damping`]) under a linear
     /// elastic law a delayed force is, to first order, a change of the damping,
     /// κ·δ(t − τ) + λ·δ̇(t − τ) ≈ κ·δ + (λ − κ·τ)·δ̇, and τ and λ part only at second order
     /// (a term (κτ²/2 − λτ)·δ̈ a few thousandths of the force; on an independent
@@ -552,6 +553,13 @@ pub struct Nonlinear {
     /// (κδ + m(e^{bδ} − 1)/b) or replaces it (m(e^{bδ} − 1)/b): a structural choice, not
     /// searched; the workflow fits both and keeps the better by BIC.
     pub linear_spring: bool,
+    /// Whether the delay was named from the lag of the force in contact alone (the
+    /// current model's damping held at its bound 0, the contact edges not showing the
+    /// delay): then, as on a record that never leaves contact, only the damping's
+    /// combination λ − κ·τ is determined ([`Determination::DampingCombination`]). A
+    /// property of how the record showed the delay, carried by every later fit; not searched.
+    #[serde(default)]
+    pub delay_as_damping: bool,
 }
 
 impl Default for Nonlinear {
@@ -567,6 +575,7 @@ impl Default for Nonlinear {
             plastic: 0.0,
             slip_m_per_s: 1e-3,
             linear_spring: false,
+            delay_as_damping: false,
         }
     }
 }

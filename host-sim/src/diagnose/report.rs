@@ -59,7 +59,12 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
             );
             let combination = lambda - kappa * tau;
             Some(format!(
-                "the record never leaves contact, where a delay τ is to first order a change −κ·τ of the damping: only λ − κ·τ is determined ({combination:.4e} N·s/m), not each (with {}){}; a lift-off out of contact determines them",
+                "{}, where a delay τ is to first order a change −κ·τ of the damping: only λ − κ·τ is determined ({combination:.4e} N·s/m), not each (with {}){}; {}",
+                if fit.nonlinear.delay_as_damping {
+                    "the delay shows as a lag of the force in contact, not at the contact onsets and lift-offs"
+                } else {
+                    "the record never leaves contact"
+                },
                 other.id(),
                 if combination < 0.0 {
                     format!(
@@ -68,6 +73,11 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
                     )
                 } else {
                     String::new()
+                },
+                if fit.nonlinear.delay_as_damping {
+                    "a faster onset, or a lift-off at a higher speed, shows the delay at the edges"
+                } else {
+                    "a lift-off out of contact determines them"
                 }
             ))
         }

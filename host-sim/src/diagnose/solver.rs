@@ -1005,7 +1005,9 @@ fn name_parameters(
 /// a relaxation's fraction when its rate sits at the slow bound (only c·ν is fitted
 /// then), and the tare and the contact point of a linear elastic law on a fit window
 /// that never leaves contact (`in_contact_throughout`: only their combination is
-/// fitted), and there also a delay and the plain damping (only λ − κ·τ is fitted). Their
+/// fitted), and there (or where the delay was named from the lag in contact alone,
+/// [`Nonlinear::delay_as_damping`]) also a delay and the plain damping (only λ − κ·τ is
+/// fitted). Their
 /// standard errors become NaN (not reported).
 fn mark_undetermined(
     out: &mut [Estimate],
@@ -1050,21 +1052,6 @@ fn mark_undetermined(
             Determination::CombinationOnly(Param::TareN),
         );
     }
-    if in_contact_throughout
-        && linear
-        && !hold_damping
-        && effects.contains(&Effect::TimeDelay)
-        && !effects.contains(&Effect::DepthDependentDamping)
-    {
-        mark(
-            Param::DelayS,
-            Determination::DampingCombination(Param::Lambda),
-        );
-        mark(
-            Param::Lambda,
-            Determination::DampingCombination(Param::DelayS),
-        );
-    }
     if effects.contains(&Effect::Relaxation)
         && Knob::RelaxationRate.bound_hit(nl.nu, scale) == Some(Bound::Lower)
     {
@@ -1072,6 +1059,48 @@ fn mark_undetermined(
             Param::RelaxedFraction,
             Determination::ProductOnly(Param::RatePerS),
         );
+    }
+    if (in_contact_throughout || nl.delay_as_damping)
+        && delay_trades_with_damping(|e| effects.contains(&e), hold_damping)
+    {
+        mark_damping_combination(out);
+    }
+}
+
+/// Whether a model's delay and damping trade to first order where the record shows the
+/// delay only in contact: a linear elastic law (a power law's or an exponential's
+/// stiffness changes with depth, so −τ·dF/dδ·δ̇ is not a plain damping), the plain
+/// damping free (not held) and no depth-dependent one.
+fn delay_trades_with_damping(has: impl Fn(Effect) -> bool, hold_damping: bool) -> bool {
+    !has(Effect::PowerLawStiffness)
+        && !has(Effect::ExponentialStiffness)
+        && !hold_damping
+        && has(Effect::TimeDelay)
+        && !has(Effect::DepthDependentDamping)
+}
+
+/// Marks a model's delay and damping as determined only in their combination λ − κ·τ
+/// ([`Determination::DampingCombination`]); their standard errors become NaN.
+fn mark_damping_combination(out: &mut [Estimate]) {
+    for (param, other) in [
+        (Param::DelayS, Param::Lambda),
+        (Param::Lambda, Param::DelayS),
+    ] {
+        if let Some(e) = out.iter_mut().find(|e| e.param == param) {
+            e.determination = Determination::DampingCombination(other);
+            e.standard_error = f64::NAN;
+        }
+    }
+}
+
+/// Records that `fit`'s delay was named from the lag of the force in contact alone
+/// ([`Nonlinear::delay_as_damping`]), so that this fit and every later one started from
+/// its nonlinear parameters report only λ − κ·τ where the two trade
+/// ([`delay_trades_with_damping`]).
+pub(super) fn mark_delay_as_damping(fit: &mut Fit, hold_damping: bool) {
+    fit.nonlinear.delay_as_damping = true;
+    if delay_trades_with_damping(|e| fit.effects.contains(&e), hold_damping) {
+        mark_damping_combination(&mut fit.parameters);
     }
 }
 
