@@ -851,9 +851,12 @@ fn delayed_ramps(seed: u64, lambda: f64, delay_s: f64) -> Vec<(f64, f64, f64)> {
 /// with its damping at 0 follows the delayed force within a few λ·δ̇. The delay is named
 /// from the lag (a damping held at 0 with τ > 0 is no passive material's), with only
 /// λ − κ·τ reported as determined, even though the record leaves contact; within 1 N·s/m
-/// of the truth's −4.4 (at the fastest ramp's 6 mm/s, 0.006 N: a tenth of the noise). With
-/// a damping that keeps λ − κ·τ well above zero (λ = 60: +33 N·s/m) the edges show the
-/// delay and it is named as before, determined. (The independent generator's ramps and
+/// of the truth's −4.4 (at the fastest ramp's 6 mm/s, 0.006 N: a tenth of the noise), on
+/// two of the three seeds (the third's edges and kinks show the delay: τ within 10 %).
+/// With a damping that keeps λ − κ·τ well above zero (λ = 60: +33 N·s/m) the edges and
+/// the ramps' reversals show the delay and it is named determined, τ within 10 % (before
+/// the reversals were modelled as steps, `KinkStep`, τ came out at 4.0-4.8 ms with a
+/// standard error of 0.03-0.07 ms). (The independent generator's ramps and
 /// ramp-and-holds missed the first kind before 2026-11-25: edge RSS ratios 0.60-0.96
 /// against the rule's 0.6.)
 #[test]
@@ -872,33 +875,42 @@ fn a_delay_the_contact_edges_do_not_show_is_named_from_its_lag_with_only_the_com
             .unwrap()
             .determination
     };
+    let tau_of = |d: &Diagnosis| d.final_fit.parameter(Param::DelayS).unwrap();
+    let mut from_the_lag = 0;
     for seed in 0..3 {
         let lambda = 22.6;
         let rows = delayed_ramps(seed, lambda, delay);
         let d = diagnose_rows(dir.path(), &format!("lag-{seed}.csv"), &rows);
         assert_eq!(d.effects_added(), ["time_delay"], "seed {seed}");
-        assert_eq!(
-            determination(&d),
-            Determination::DampingCombination(Param::Lambda),
-            "seed {seed}"
-        );
-        let truth = lambda - kappa * delay;
-        assert!(
-            (combination(&d) - truth).abs() < 1.0,
-            "seed {seed}: λ − κτ {} against {truth}",
-            combination(&d)
-        );
+        match determination(&d) {
+            Determination::DampingCombination(Param::Lambda) => {
+                from_the_lag += 1;
+                let truth = lambda - kappa * delay;
+                assert!(
+                    (combination(&d) - truth).abs() < 1.0,
+                    "seed {seed}: λ − κτ {} against {truth}",
+                    combination(&d)
+                );
+            }
+            // Where the kinks and edges show it after all: τ itself.
+            Determination::Determined => {
+                assert_within_10_percent(Some(tau_of(&d)), delay, &format!("seed {seed}: τ"))
+            }
+            other => panic!("seed {seed}: the delay {other:?}"),
+        }
         let lambda = 60.0;
         let rows = delayed_ramps(seed, lambda, delay);
         let d = diagnose_rows(dir.path(), &format!("edges-{seed}.csv"), &rows);
         assert_eq!(d.effects_added(), ["time_delay"], "seed {seed}");
         assert_eq!(determination(&d), Determination::Determined, "seed {seed}");
+        assert_within_10_percent(Some(tau_of(&d)), delay, &format!("seed {seed}: τ"));
         assert_within_10_percent(
             Some(combination(&d)),
             lambda - kappa * delay,
             &format!("seed {seed}: λ − κτ"),
         );
     }
+    assert!(from_the_lag >= 2, "{from_the_lag} of 3 named from the lag");
 }
 
 /// A Hunt-Crossley ramp-and-hold shows its law at two brief ramps only (seed 3116). On

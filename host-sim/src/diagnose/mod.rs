@@ -543,154 +543,171 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             with
         };
         let one_contact = unidentifiable.contains(&Effect::ContactPointOffset);
-        let fit_one =
-            |(e, replaces): (Effect, Option<Effect>), from: &Nonlinear, effort: Effort| {
-                // On a record with one contact (a compression test), a model with the
-                // exponential law is screened with the law alone and on the linear
-                // spring, at every step; the spring is one more parameter and is kept
-                // only if it passes the rule an effect passes against the law alone. The
-                // refinement keeps the screened variant. Where later contacts can show a
-                // shifted contact point, the spring is not offered: near the contact it
-                // has the same signature as the shift (on the project's sweep it took the
-                // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
-                let with = set(e, replaces);
-                // How the record shows a delay is the edge test's verdict on this fit
-                // (below), not the screen's.
-                let from = &Nonlinear {
-                    delay_as_damping: from.delay_as_damping && e != Effect::TimeDelay,
+        let fit_one = |(e, replaces): (Effect, Option<Effect>),
+                       from: &Nonlinear,
+                       effort: Effort| {
+            // On a record with one contact (a compression test), a model with the
+            // exponential law is screened with the law alone and on the linear
+            // spring, at every step; the spring is one more parameter and is kept
+            // only if it passes the rule an effect passes against the law alone. The
+            // refinement keeps the screened variant. Where later contacts can show a
+            // shifted contact point, the spring is not offered: near the contact it
+            // has the same signature as the shift (on the project's sweep it took the
+            // shift's place in 1 of 20 logs and left 2 more at 2.6-5× the noise floor).
+            let with = set(e, replaces);
+            // How the record shows a delay is the edge test's verdict on this fit
+            // (below), not the screen's.
+            let from = &Nonlinear {
+                delay_as_damping: from.delay_as_damping && e != Effect::TimeDelay,
+                ..*from
+            };
+            let knobs: Vec<_> = e.knob().into_iter().collect();
+            let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
+            let fit = if with.contains(&Effect::ExponentialStiffness)
+                && effort == Effort::QUICK
+                && one_contact
+            {
+                let variant = |linear_spring| Nonlinear {
+                    linear_spring,
                     ..*from
                 };
-                let knobs: Vec<_> = e.knob().into_iter().collect();
-                let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
-                let fit = if with.contains(&Effect::ExponentialStiffness)
-                    && effort == Effort::QUICK
-                    && one_contact
-                {
-                    let variant = |linear_spring| Nonlinear {
-                        linear_spring,
-                        ..*from
-                    };
-                    match (fit_from(&variant(false)), fit_from(&variant(true))) {
-                        (Some(alone), Some(spring)) => {
-                            let keeps = score(
-                                Effect::ExponentialStiffness,
-                                None,
-                                spring.clone(),
-                                &alone,
-                                options,
-                                duration_s,
-                                noise_fraction,
-                            )
-                            .significant;
-                            if keeps {
-                                spring
-                            } else {
-                                alone
-                            }
+                match (fit_from(&variant(false)), fit_from(&variant(true))) {
+                    (Some(alone), Some(spring)) => {
+                        let keeps = score(
+                            Effect::ExponentialStiffness,
+                            None,
+                            spring.clone(),
+                            &alone,
+                            options,
+                            duration_s,
+                            noise_fraction,
+                        )
+                        .significant;
+                        if keeps {
+                            spring
+                        } else {
+                            alone
                         }
-                        (alone, spring) => alone.or(spring)?,
                     }
-                } else {
-                    fit_from(from)?
-                };
-                let mut scored = score(
-                    e,
-                    replaces,
-                    fit,
-                    &current,
-                    options,
-                    duration_s,
-                    noise_fraction,
-                );
-                if e == Effect::TimeDelay {
-                    // A force channel delayed by τ rises τ after each contact onset and
-                    // falls τ after each lift-off: where the undelayed model misses
-                    // most, and where nothing else in the catalogue moves the force in
-                    // time. So a delay must fit there: the residual within 2|τ| + 2
-                    // blocks of the detector's onsets and lift-offs at most
-                    // EDGE_RSS_MAX_RATIO of the current model's (a record without one:
-                    // below). A delay that fits elsewhere
-                    // only takes up another misfit: a sharp reversal, an impact, a mass
-                    // on a chirp (the structure sweep's clean taps, seeds 3013 and 3018;
-                    // the independent generator's inertia chirps).
-                    //
-                    // A record without contact edges shows a delay in one way: as a lag
-                    // of the force behind the motion that no passive material has. In
-                    // contact a delay τ is, to first order, a change −κ·τ of the damping
-                    // (F(t − τ) ≈ F − τ·dF/dt), so a delay is told from damping only where
-                    // the record asks for a damping below zero: the current model's
-                    // damping held at its physical bound 0 and a positive τ (a negative
-                    // one, a lead, is a damping the model has). Even then only λ − κ·τ is
-                    // determined, not τ (`Determination::DampingCombination`). The
-                    // independent generator's sines pressed in contact were left at 3-8×
-                    // their noise before (18 of its 20 have κ·τ > λ; the other two are
-                    // a damping to the record, and are not named). That one is judged
-                    // for every delay, significant or not, so that no pair takes a delay
-                    // the record cannot tell from damping; the edge rule only for the
-                    // significant ones (a delay paired for its BIC alone is not
-                    // edge-tested: left as it was).
-                    //
-                    // The same lag names a delay on a record with contact edges that do
-                    // not show it: where λ − κ·τ is near 0 the undelayed model with its
-                    // damping at 0 already follows the delayed force at the edges
-                    // (F(t − τ) ≈ κ·δ + (λ − κ·τ)·δ̇ there too), and under coloured
-                    // noise the few edge samples weigh little. A damping held at 0 with
-                    // τ > 0 is a lag no passive material has, so the delay is named
-                    // there too, with only λ − κ·τ determined
-                    // (`Nonlinear::delay_as_damping`), provided it fits the edges no
-                    // worse than the model without it. (The independent generator's
-                    // ramps and ramp-and-holds: 5 of their 12 missed delays on seeds
-                    // 7000-7019, edge RSS ratios 0.60-0.96, all with λ − κ·τ between
-                    // −11 and −3 N·s/m.)
-                    let tau = scored.fit.parameter(Param::DelayS).unwrap_or(0.0);
-                    let half_width = 2.0 * tau.abs() + 2.0 * data.dt;
-                    let edges = scoring::edge_rss(data, &scored.fit, &current, half_width);
-                    let lags_beyond_passive = tau > 0.0 && damping_at_its_bound(&current);
-                    match edges {
-                        // (A NaN ratio is refused too: not shown.)
-                        Some((with, without))
-                            if scored.significant
-                                && !matches!(
-                                    with.partial_cmp(&(EDGE_RSS_MAX_RATIO * without)),
-                                    Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
-                                ) =>
-                        {
-                            if lags_beyond_passive && with < without {
-                                solver::mark_delay_as_damping(&mut scored.fit, data.hold_damping);
-                            } else {
-                                scored.significant = false;
-                                scored.unseen_at_contact_edges = true;
-                            }
-                        }
-                        None if !lags_beyond_passive => {
-                            scored.significant = false;
-                            scored.a_damping_change_in_contact = true;
-                        }
-                        _ => {}
-                    }
+                    (alone, spring) => alone.or(spring)?,
                 }
-                // (After the edge test, which refuses most of these first: every
-                // sub-sample delay is marked, significant or not, so that no pair takes it.)
-                if under_half_a_sample(data, &scored.fit) {
-                    scored.significant = false;
-                    scored.under_half_a_sample = true;
-                }
-                if e == Effect::ForceDrift {
-                    // The zero is seen alone in the free space: a drift it does not show
-                    // there (the same sign, |t| ≥ 3 against the stretch means' scatter)
-                    // is the contact's misfit taken up by a slope in time (the project's
-                    // clean chirps and ramps with AR(1) noise were given one).
-                    let drift = scored.fit.parameter(Param::ForceDriftNPerS).unwrap_or(0.0);
-                    let shown = free_trend.is_some_and(|(slope, t)| {
-                        slope * drift > 0.0 && t.abs() >= MIN_FREE_SPACE_TREND
-                    });
-                    if !shown {
-                        scored.significant = false;
-                        scored.unseen_in_free_space = true;
-                    }
-                }
-                Some(scored)
+            } else {
+                fit_from(from)?
             };
+            let mut scored = score(
+                e,
+                replaces,
+                fit,
+                &current,
+                options,
+                duration_s,
+                noise_fraction,
+            );
+            if e == Effect::TimeDelay {
+                // A force channel delayed by τ rises τ after each contact onset and
+                // falls τ after each lift-off: where the undelayed model misses
+                // most, and where nothing else in the catalogue moves the force in
+                // time. So a delay must fit there: the residual within 2|τ| + 2
+                // blocks of the detector's onsets and lift-offs at most
+                // EDGE_RSS_MAX_RATIO of the current model's (a record without one:
+                // below). A delay that fits elsewhere
+                // only takes up another misfit: a sharp reversal, an impact, a mass
+                // on a chirp (the structure sweep's clean taps, seeds 3013 and 3018;
+                // the independent generator's inertia chirps).
+                //
+                // A record without contact edges shows a delay in one way: as a lag
+                // of the force behind the motion that no passive material has. In
+                // contact a delay τ is, to first order, a change −κ·τ of the damping
+                // (F(t − τ) ≈ F − τ·dF/dt), so a delay is told from damping only where
+                // the record asks for a damping below zero: the current model's
+                // damping held at its physical bound 0 and a positive τ (a negative
+                // one, a lead, is a damping the model has). Even then only λ − κ·τ is
+                // determined, not τ (`Determination::DampingCombination`). The
+                // independent generator's sines pressed in contact were left at 3-8×
+                // their noise before (18 of its 20 have κ·τ > λ; the other two are
+                // a damping to the record, and are not named). That one is judged
+                // for every delay, significant or not, so that no pair takes a delay
+                // the record cannot tell from damping; the edge rule only for the
+                // significant ones (a delay paired for its BIC alone is not
+                // edge-tested: left as it was).
+                //
+                // The same lag names a delay on a record with contact edges that do
+                // not show it: where λ − κ·τ is near 0 the undelayed model with its
+                // damping at 0 already follows the delayed force at the edges
+                // (F(t − τ) ≈ κ·δ + (λ − κ·τ)·δ̇ there too), and under coloured
+                // noise the few edge samples weigh little. A damping held at 0 with
+                // τ > 0 is a lag no passive material has, so the delay is named
+                // there too, with only λ − κ·τ determined
+                // (`Nonlinear::delay_as_damping`), provided its λ − κ·τ is below zero
+                // by more than two standard errors (a review's noise-only ramps gave
+                // −0.2 to −0.5 N·s/m, a real lag −4.4 ± 0.3) and it fits the edges no
+                // worse than the model without it. (The independent generator's
+                // ramps and ramp-and-holds: 5 of their 12 missed delays on seeds
+                // 7000-7019, edge RSS ratios 0.60-0.96, all with λ − κ·τ between
+                // −11 and −3 N·s/m.)
+                let tau = scored.fit.parameter(Param::DelayS).unwrap_or(0.0);
+                let half_width = 2.0 * tau.abs() + 2.0 * data.dt;
+                let edges = scoring::edge_rss(data, &scored.fit, &current, half_width);
+                let lags_beyond_passive = tau > 0.0 && damping_at_its_bound(&current);
+                // The lag a delay fit asks for beyond a passive damping: its λ − κ·τ
+                // below zero by more than two standard errors of λ (at the fitted τ,
+                // that of the combination along the valley where the two trade).
+                let lags_significantly = {
+                    let p = |q: Param| scored.fit.parameters.iter().find(|p| p.param == q).copied();
+                    match (p(Param::Kappa), p(Param::Lambda)) {
+                        (Some(kappa), Some(lambda)) if lambda.standard_error.is_finite() => {
+                            lambda.value - kappa.value * tau + 2.0 * lambda.standard_error < 0.0
+                        }
+                        _ => false,
+                    }
+                };
+                match edges {
+                    // (A NaN ratio is refused too: not shown.)
+                    Some((with, without))
+                        if scored.significant
+                            && !matches!(
+                                with.partial_cmp(&(EDGE_RSS_MAX_RATIO * without)),
+                                Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+                            ) =>
+                    {
+                        if lags_beyond_passive && lags_significantly && with < without {
+                            solver::mark_delay_as_damping(&mut scored.fit, data.hold_damping);
+                        } else {
+                            scored.significant = false;
+                            scored.unseen_at_contact_edges = true;
+                        }
+                    }
+                    None if !lags_beyond_passive => {
+                        scored.significant = false;
+                        scored.a_damping_change_in_contact = true;
+                    }
+                    _ => {}
+                }
+            }
+            // (After the edge test, which refuses most of these first: every
+            // sub-sample delay is marked, significant or not, so that no pair takes it.
+            // Not one named from its lag alone: there τ is a point of the valley
+            // along which only λ − κ·τ is determined, not a measured delay.)
+            if under_half_a_sample(data, &scored.fit) && !scored.fit.nonlinear.delay_as_damping {
+                scored.significant = false;
+                scored.under_half_a_sample = true;
+            }
+            if e == Effect::ForceDrift {
+                // The zero is seen alone in the free space: a drift it does not show
+                // there (the same sign, |t| ≥ 3 against the stretch means' scatter)
+                // is the contact's misfit taken up by a slope in time (the project's
+                // clean chirps and ramps with AR(1) noise were given one).
+                let drift = scored.fit.parameter(Param::ForceDriftNPerS).unwrap_or(0.0);
+                let shown = free_trend.is_some_and(|(slope, t)| {
+                    slope * drift > 0.0 && t.abs() >= MIN_FREE_SPACE_TREND
+                });
+                if !shown {
+                    scored.significant = false;
+                    scored.unseen_in_free_space = true;
+                }
+            }
+            Some(scored)
+        };
         let mut screened: Vec<Candidate> = untried
             .into_par_iter()
             .filter_map(|c| fit_one(c, &current.nonlinear, Effort::QUICK))

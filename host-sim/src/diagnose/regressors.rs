@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use estimator_core::laws;
 
 use super::catalogue::{Effect, Nonlinear, Scales};
-use super::data::Prepared;
+use super::data::{KinkStep, Prepared};
 
 /// A regression column of the composite model: its coefficient is solved by least
 /// squares for given [`Nonlinear`] values.
@@ -121,9 +121,46 @@ pub(super) fn design(
     } else {
         0.0
     };
+    let block = data.block;
+    let half = (block as f64 - 1.0) / 2.0;
+    // A delayed model reads the motion's kinks among the samples that count (undelayed,
+    // they are left out): there the rate steps at the kink ([`KinkStep`]) instead of
+    // being interpolated across it. `near_kink[b]`: the kink whose run fitting sample b
+    // is in (delayed models only).
+    let mut near_kink: Vec<Option<&KinkStep>> = Vec::new();
+    if shift != 0.0 && !data.kink_steps.is_empty() {
+        near_kink = vec![None; data.len()];
+        for k in &data.kink_steps {
+            for flag in &mut near_kink[k.first_block..=k.last_block.min(data.len() - 1)] {
+                *flag = Some(k);
+            }
+        }
+    }
+    // The rate at raw index `raw` on a kink's run: the side's own rate.
+    let kink_rate = |raw: f64| -> Option<f64> {
+        let p = (raw - half) / block as f64;
+        if near_kink.is_empty() || p < 0.0 {
+            return None;
+        }
+        let i = p as usize;
+        let k = near_kink
+            .get(i)
+            .copied()
+            .flatten()
+            .or_else(|| near_kink.get(i + 1).copied().flatten())?;
+        (p >= k.first_block as f64 && p <= k.last_block as f64).then_some(if raw < k.raw_index {
+            k.rate_before
+        } else {
+            k.rate_after
+        })
+    };
+    let rate_at = |raw: f64| -> f64 {
+        kink_rate(raw).unwrap_or_else(|| interp(&data.rate_m_per_s, (raw - half) / block as f64))
+    };
     // Delayed motion: block averages of the raw depth over a window shifted by the delay
     // (exact for the linearly interpolated raw signal, from prefix sums), and their
-    // differences; the undelayed signals are the prepared ones.
+    // differences (on a kink's run, the side's rate at the window's centre); the undelayed
+    // signals are the prepared ones.
     let delayed: Option<[Vec<f64>; 3]> = (shift != 0.0).then(|| {
         let b = data.block as f64;
         let avg = |k: isize| data.raw_block_mean(k as f64 * b - shift * b);
@@ -135,7 +172,8 @@ pub(super) fn design(
             let k = (start + i) as isize;
             let (m0, m1, p1) = (avg(k - 1), avg(k), avg(k + 1));
             dd.push(m1);
-            vv.push((p1 - m0) / (2.0 * dt));
+            let centre = k as f64 * b + half - shift * b;
+            vv.push(kink_rate(centre).unwrap_or((p1 - m0) / (2.0 * dt)));
             aa.push((p1 - 2.0 * m1 + m0) / (dt * dt));
         }
         [dd, vv, aa]
@@ -191,8 +229,6 @@ pub(super) fn design(
             de,
         )
     };
-    let block = data.block;
-    let half = (block as f64 - 1.0) / 2.0;
     // The file's own samples on the raw index axis (a resampled log; empty otherwise), and
     // the two that bracket raw index x.
     let native = &data.native_raw_index;
@@ -350,92 +386,96 @@ pub(super) fn design(
             );
             a * v <= 0.0 || b * v <= 0.0
         };
-        let (g, e, dv, c, de) = if block > 1 && ((lo < reference && hi > reference) || reverses) {
-            let mut sum = (0.0, 0.0, 0.0, 0.0, 0.0);
-            // The laws at raw index x of the measured force (its position read `shift`
-            // blocks earlier).
-            let at = |x: f64| {
-                let raw = x - shift * block as f64;
-                let dj = interp(&data.raw_depth_m, raw) - reference;
-                if dj <= 0.0 {
-                    (0.0, 0.0, 0.0, 0.0, 0.0)
-                } else {
-                    terms(dj, interp(&data.rate_m_per_s, (raw - half) / block as f64))
-                }
-            };
-            // The laws at the last bracket's two file samples: a block of a file slower
-            // than 1 kHz has many raw samples between the same two.
-            let mut bracket: Option<((f64, f64), (Terms, Terms))> = None;
-            for j in 0..block {
-                if !native.is_empty() {
-                    // A resampled log: the measured force here is the resampler's straight
-                    // line between the file's samples on either side, so the model is
-                    // too (Kelvin-Voigt's force jumps by λ·v within that interval: a step
-                    // at the crossing put 4-7 noise deviations at each edge of a 124 Hz
-                    // record's taps, which a contact-point shift then took up).
-                    let x = ((start + i) * block + j) as f64;
-                    let (a, z) = native_bracket(x);
-                    let w = if z > a { (x - a) / (z - a) } else { 0.0 };
-                    let (ta, tz) = match bracket {
-                        Some((ends, terms)) if ends == (a, z) => terms,
-                        _ => {
-                            let terms = (at(a), at(z));
-                            bracket = Some(((a, z), terms));
-                            terms
-                        }
-                    };
+        // So is a delayed block whose window reads a kink of the motion.
+        let kinked = !near_kink.is_empty()
+            && (near_kink[b.min(last)].is_some() || near_kink[(b + 1).min(last)].is_some());
+        let (g, e, dv, c, de) =
+            if block > 1 && ((lo < reference && hi > reference) || reverses || kinked) {
+                let mut sum = (0.0, 0.0, 0.0, 0.0, 0.0);
+                // The laws at raw index x of the measured force (its position read `shift`
+                // blocks earlier).
+                let at = |x: f64| {
+                    let raw = x - shift * block as f64;
+                    let dj = interp(&data.raw_depth_m, raw) - reference;
+                    if dj <= 0.0 {
+                        (0.0, 0.0, 0.0, 0.0, 0.0)
+                    } else {
+                        terms(dj, rate_at(raw))
+                    }
+                };
+                // The laws at the last bracket's two file samples: a block of a file slower
+                // than 1 kHz has many raw samples between the same two.
+                let mut bracket: Option<((f64, f64), (Terms, Terms))> = None;
+                for j in 0..block {
+                    if !native.is_empty() {
+                        // A resampled log: the measured force here is the resampler's straight
+                        // line between the file's samples on either side, so the model is
+                        // too (Kelvin-Voigt's force jumps by λ·v within that interval: a step
+                        // at the crossing put 4-7 noise deviations at each edge of a 124 Hz
+                        // record's taps, which a contact-point shift then took up).
+                        let x = ((start + i) * block + j) as f64;
+                        let (a, z) = native_bracket(x);
+                        let w = if z > a { (x - a) / (z - a) } else { 0.0 };
+                        let (ta, tz) = match bracket {
+                            Some((ends, terms)) if ends == (a, z) => terms,
+                            _ => {
+                                let terms = (at(a), at(z));
+                                bracket = Some(((a, z), terms));
+                                terms
+                            }
+                        };
+                        sum = (
+                            sum.0 + ta.0 + w * (tz.0 - ta.0),
+                            sum.1 + ta.1 + w * (tz.1 - ta.1),
+                            sum.2 + ta.2 + w * (tz.2 - ta.2),
+                            sum.3 + ta.3 + w * (tz.3 - ta.3),
+                            sum.4 + ta.4 + w * (tz.4 - ta.4),
+                        );
+                        continue;
+                    }
+                    let raw = ((start + i) * block + j) as f64 - shift * block as f64;
+                    // (Undelayed, a raw sample itself: the interpolation's value there.)
+                    let dj = if shift == 0.0 {
+                        data.raw_depth_m[(start + i) * block + j]
+                    } else {
+                        interp(&data.raw_depth_m, raw)
+                    } - reference;
+                    if dj <= 0.0 {
+                        // Out of contact every term is 0 (adding +0 changes no sum).
+                        continue;
+                    }
+                    let vj = rate_at(raw);
+                    let t = terms(dj, vj);
                     sum = (
-                        sum.0 + ta.0 + w * (tz.0 - ta.0),
-                        sum.1 + ta.1 + w * (tz.1 - ta.1),
-                        sum.2 + ta.2 + w * (tz.2 - ta.2),
-                        sum.3 + ta.3 + w * (tz.3 - ta.3),
-                        sum.4 + ta.4 + w * (tz.4 - ta.4),
+                        sum.0 + t.0,
+                        sum.1 + t.1,
+                        sum.2 + t.2,
+                        sum.3 + t.3,
+                        sum.4 + t.4,
                     );
-                    continue;
                 }
-                let raw = ((start + i) * block + j) as f64 - shift * block as f64;
-                // (Undelayed, a raw sample itself: the interpolation's value there.)
-                let dj = if shift == 0.0 {
-                    data.raw_depth_m[(start + i) * block + j]
+                let k = block as f64;
+                (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k, sum.4 / k)
+            } else if block > 1 {
+                // A block inside or outside contact: the mean of the laws over its raw samples
+                // (see `block_means`), not their value at the block's mean depth.
+                let de = series(0, i) - reference;
+                if de <= 0.0 {
+                    terms(de, v)
                 } else {
-                    interp(&data.raw_depth_m, raw)
-                } - reference;
-                if dj <= 0.0 {
-                    // Out of contact every term is 0 (adding +0 changes no sum).
-                    continue;
+                    let (e, dv) = block_means(de, v, series(2, i));
+                    (
+                        1.0,
+                        e,
+                        dv,
+                        if coulomb_on { (v / v0).tanh() } else { 0.0 },
+                        de,
+                    )
                 }
-                let vj = interp(&data.rate_m_per_s, (raw - half) / block as f64);
-                let t = terms(dj, vj);
-                sum = (
-                    sum.0 + t.0,
-                    sum.1 + t.1,
-                    sum.2 + t.2,
-                    sum.3 + t.3,
-                    sum.4 + t.4,
-                );
-            }
-            let k = block as f64;
-            (sum.0 / k, sum.1 / k, sum.2 / k, sum.3 / k, sum.4 / k)
-        } else if block > 1 {
-            // A block inside or outside contact: the mean of the laws over its raw samples
-            // (see `block_means`), not their value at the block's mean depth.
-            let de = series(0, i) - reference;
-            if de <= 0.0 {
-                terms(de, v)
             } else {
-                let (e, dv) = block_means(de, v, series(2, i));
-                (
-                    1.0,
-                    e,
-                    dv,
-                    if coulomb_on { (v / v0).tanh() } else { 0.0 },
-                    de,
-                )
-            }
-        } else {
-            let de = series(0, i) - reference;
-            terms(de, v)
-        };
+                let de = series(0, i) - reference;
+                terms(de, v)
+            };
         gate.push(g > 0.0);
         elastic.push(e);
         if has(Effect::ExponentialStiffness) && nl.linear_spring {

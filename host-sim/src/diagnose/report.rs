@@ -61,7 +61,7 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
             Some(format!(
                 "{}, where a delay τ is to first order a change −κ·τ of the damping: only λ − κ·τ is determined ({combination:.4e} N·s/m), not each (with {}){}; {}",
                 if fit.nonlinear.delay_as_damping {
-                    "the delay shows as a lag of the force in contact, not at the contact onsets and lift-offs"
+                    "the delay shows as a lag of the force in contact, not clearly at the contact onsets, lift-offs and kinks of the motion"
                 } else {
                     "the record never leaves contact"
                 },
@@ -75,7 +75,7 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
                     String::new()
                 },
                 if fit.nonlinear.delay_as_damping {
-                    "a faster onset, or a lift-off at a higher speed, shows the delay at the edges"
+                    "a faster onset or lift-off, less noise or a faster sampling shows the delay at the edges"
                 } else {
                     "a lift-off out of contact determines them"
                 }

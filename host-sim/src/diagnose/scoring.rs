@@ -288,7 +288,9 @@ pub(super) fn free_runs(data: &Prepared, start: usize, min_len: usize) -> Vec<(u
 
 /// The residual sums of squares \[N²\] of `fit` and `current` over the samples within
 /// `half_width_s` of a contact onset or lift-off (the detector's transitions after the fit
-/// window's start); `None` where the window has neither.
+/// window's start) or of a kink of the motion in contact ([`super::data::KinkStep`]:
+/// there the force steps by λ·Δv, and a delayed channel steps τ later); `None` where the
+/// window has none.
 pub fn edge_rss(
     data: &Prepared,
     fit: &Fit,
@@ -302,6 +304,15 @@ pub fn edge_rss(
     let mut edges = false;
     for i in (start + 1)..n {
         if data.contact[i] != data.contact[i - 1] {
+            edges = true;
+            for flag in &mut near[i.saturating_sub(w).max(start)..(i + w + 1).min(n)] {
+                *flag = true;
+            }
+        }
+    }
+    for k in &data.kink_steps {
+        let i = (k.raw_index / data.block as f64) as usize;
+        if i >= start && i < n && data.contact[i] {
             edges = true;
             for flag in &mut near[i.saturating_sub(w).max(start)..(i + w + 1).min(n)] {
                 *flag = true;
