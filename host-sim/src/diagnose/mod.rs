@@ -607,8 +607,10 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // A force channel delayed by τ rises τ after each contact onset and
                 // falls τ after each lift-off: where the undelayed model misses
                 // most, and where nothing else in the catalogue moves the force in
-                // time. So a delay must fit there: the residual within 2|τ| + 2
-                // blocks of the detector's onsets and lift-offs at most
+                // time (nor after a kink of the motion in contact, where the force
+                // steps by λ·Δv). So a delay must fit there: the residual within
+                // 2|τ| + 2 blocks of the detector's onsets and lift-offs, and of the
+                // kinks in contact (`scoring::edge_rss`), at most
                 // EDGE_RSS_MAX_RATIO of the current model's (a record without one:
                 // below). A delay that fits elsewhere
                 // only takes up another misfit: a sharp reversal, an impact, a mass

@@ -301,22 +301,18 @@ pub fn edge_rss(
     let w = (half_width_s / data.dt).ceil() as usize;
     let n = data.len();
     let mut near = vec![false; n];
+    // The contact transitions, and the kinks of the motion in contact.
+    let transitions = ((start + 1)..n).filter(|&i| data.contact[i] != data.contact[i - 1]);
+    let kinks = data
+        .kink_steps
+        .iter()
+        .map(|k| (k.raw_index / data.block as f64) as usize)
+        .filter(|&i| i >= start && i < n && data.contact[i]);
     let mut edges = false;
-    for i in (start + 1)..n {
-        if data.contact[i] != data.contact[i - 1] {
-            edges = true;
-            for flag in &mut near[i.saturating_sub(w).max(start)..(i + w + 1).min(n)] {
-                *flag = true;
-            }
-        }
-    }
-    for k in &data.kink_steps {
-        let i = (k.raw_index / data.block as f64) as usize;
-        if i >= start && i < n && data.contact[i] {
-            edges = true;
-            for flag in &mut near[i.saturating_sub(w).max(start)..(i + w + 1).min(n)] {
-                *flag = true;
-            }
+    for i in transitions.chain(kinks) {
+        edges = true;
+        for flag in &mut near[i.saturating_sub(w).max(start)..(i + w + 1).min(n)] {
+            *flag = true;
         }
     }
     let rss = |f: &Fit| -> f64 {
