@@ -386,7 +386,8 @@ impl Serialize for Param {
 /// What the record determined of a fitted parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Determination {
-    /// Fitted inside its search range (its standard error from the RSS's curvature).
+    /// Fitted inside its search range (its standard error from the RSS's curvature, a
+    /// delay's from the RSS's profile, both per effective sample of a coloured noise).
     Determined,
     /// Held at a bound of its search range (`Knob::at_bound`): the record's optimum may
     /// lie beyond it (an exponent pushed to 3.5, a stiffening rate at 8/δ_max, a contact
@@ -409,7 +410,9 @@ pub enum Determination {
     CombinationOnly(Param),
     /// Only the damping's combination λ − κ·τ with the named parameter (the delay τ or
     /// the damping λ) is determined: on a record that never leaves contact (or whose
-    /// contact edges do not show the delay, [`Nonlinear::delay_as_damping`]) under a linear
+    /// contact edges do not show the delay, [`Nonlinear::delay_as_damping`], or fix it
+    /// within fewer than [`DELAY_RESOLVED_T`](super::solver::DELAY_RESOLVED_T) standard
+    /// errors of 0: then the standard errors are kept) under a linear
     /// elastic law a delayed force is, to first order, a change of the damping,
     /// κ·δ(t − τ) + λ·δ̇(t − τ) ≈ κ·δ + (λ − κ·τ)·δ̇, and τ and λ part only at second order
     /// (a term (κτ²/2 − λτ)·δ̈ a few thousandths of the force; on an independent

@@ -58,12 +58,25 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
                 param(Param::DelayS),
             );
             let combination = lambda - kappa * tau;
+            // A delay the profile measured (`solver::delay_se`) and did not resolve from 0
+            // keeps its standard error; the other routes' are NaN.
+            let delay_se = fit
+                .parameters
+                .iter()
+                .find(|p| p.param == Param::DelayS)
+                .map_or(f64::NAN, |p| p.standard_error);
+            let from_edges = fit.nonlinear.delay_as_damping || !delay_se.is_nan();
             Some(format!(
                 "{}, where a delay τ is to first order a change −κ·τ of the damping: only λ − κ·τ is determined ({combination:.4e} N·s/m), not each (with {}){}; {}",
                 if fit.nonlinear.delay_as_damping {
-                    "the delay shows as a lag of the force in contact, not clearly at the contact onsets, lift-offs and kinks of the motion"
+                    "the delay shows as a lag of the force in contact, not clearly at the contact onsets, lift-offs and kinks of the motion".to_string()
+                } else if !delay_se.is_nan() {
+                    format!(
+                        "the contact onsets, lift-offs and kinks of the motion fix the delay only to ± {delay_se:.2e} s, less than {} standard errors from 0",
+                        super::solver::DELAY_RESOLVED_T
+                    )
                 } else {
-                    "the record never leaves contact"
+                    "the record never leaves contact".to_string()
                 },
                 other.id(),
                 if combination < 0.0 {
@@ -74,7 +87,7 @@ fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
                 } else {
                     String::new()
                 },
-                if fit.nonlinear.delay_as_damping {
+                if from_edges {
                     "a faster onset or lift-off, less noise or a faster sampling shows the delay at the edges"
                 } else {
                     "a lift-off out of contact determines them"
