@@ -32,6 +32,7 @@
 use std::collections::BTreeMap;
 
 use host_sim::diagnose::catalogue::{Determination, Effect, Param};
+use host_sim::diagnose::spec::ModelSpec;
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::{diagnose_file, FileDiagnosis};
 use host_sim::recordings::{generate, MaterialKind, Recording, Structure};
@@ -517,13 +518,20 @@ fn taps(seed: u64, zero: Zero, phi: f64) -> Vec<(f64, f64, f64)> {
 /// `rows` (time \[s\], position \[m\], force \[N\]) written to `dir/name` as a CSV file
 /// and diagnosed as a user would.
 fn diagnose_rows(dir: &std::path::Path, name: &str, rows: &[(f64, f64, f64)]) -> Diagnosis {
+    diagnose_rows_file(dir, name, rows).diagnosis
+}
+
+/// [`diagnose_rows`] with the prepared record.
+fn diagnose_rows_file(
+    dir: &std::path::Path,
+    name: &str,
+    rows: &[(f64, f64, f64)],
+) -> FileDiagnosis {
     let mut text = String::from("time_s,position_m,force_n\n");
     for (t, x, f) in rows {
         text.push_str(&format!("{t:.6},{x:.9e},{f:.9e}\n"));
     }
-    diagnose_as_a_user(&dir.join(name), &text)
-        .unwrap()
-        .diagnosis
+    diagnose_as_a_user(&dir.join(name), &text).unwrap()
 }
 
 /// A load-cell zero shift after the first contact, on Kelvin-Voigt taps sampled at 124 Hz:
@@ -884,21 +892,35 @@ fn a_delay_the_contact_edges_do_not_show_is_named_from_its_lag_with_only_the_com
     for seed in 0..3 {
         let lambda = 22.6;
         let rows = delayed_ramps(seed, lambda, delay);
-        let d = diagnose_rows(dir.path(), &format!("lag-{seed}.csv"), &rows);
+        let file = diagnose_rows_file(dir.path(), &format!("lag-{seed}.csv"), &rows);
+        let d = &file.diagnosis;
         assert_eq!(d.effects_added(), ["time_delay"], "seed {seed}");
-        match determination(&d) {
+        match determination(d) {
             Determination::DampingCombination(Param::Lambda) => {
                 from_the_lag += 1;
                 let truth = lambda - kappa * delay;
                 assert!(
-                    (combination(&d) - truth).abs() < 1.0,
+                    (combination(d) - truth).abs() < 1.0,
                     "seed {seed}: λ − κτ {} against {truth}",
-                    combination(&d)
+                    combination(d)
                 );
+                // `model.json` says so too, and keeps it through a round trip.
+                let spec = ModelSpec::of_fit(&d.final_fit, &file.prepared, "lag.csv").unwrap();
+                let text = serde_json::to_string(&spec).unwrap();
+                let back: ModelSpec = serde_json::from_str(&text).unwrap();
+                for name in ["delay_s", "lambda"] {
+                    assert!(
+                        back.undetermined
+                            .get(name)
+                            .is_some_and(|why| why.contains("only λ − κ·τ is determined")),
+                        "seed {seed}: {name}: {:?}",
+                        back.undetermined
+                    );
+                }
             }
             // Where the kinks and edges show it after all: τ itself.
             Determination::Determined => {
-                assert_within_10_percent(Some(tau_of(&d)), delay, &format!("seed {seed}: τ"))
+                assert_within_10_percent(Some(tau_of(d)), delay, &format!("seed {seed}: τ"))
             }
             other => panic!("seed {seed}: the delay {other:?}"),
         }

@@ -35,7 +35,7 @@ fn parameters_json(fit: &Fit) -> (Value, Value) {
 }
 
 /// Why the record did not determine a parameter ([`Determination`]), or `None` where it did.
-fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
+pub(super) fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
     match p.determination {
         Determination::Determined => None,
         Determination::AtSearchBound => Some(

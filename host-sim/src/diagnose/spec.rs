@@ -11,7 +11,7 @@
 //! offset. Simulating a spec evaluates exactly the law the diagnosis fitted, so the
 //! simulation is the diagnosis's own model and not a second implementation of it.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
@@ -115,6 +115,13 @@ pub struct ModelSpec {
     pub force_drift_n_per_s: Option<f64>,
     /// NRMSE \[%\] of this model on its source record (the diagnosis's final NRMSE).
     pub nrmse_percent: f64,
+    /// The parameters the record did not determine, `{name: why}` (the diagnosis's
+    /// `final_undetermined`, names as in its `final_parameters`): the spec holds the values
+    /// the fit ended on, and simulating it reproduces the fit, but only what the reason
+    /// names (a combination such as λ − κ·τ, a product, a bound) is the record's. Absent
+    /// where every parameter was determined (and in specs written before it existed).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub undetermined: BTreeMap<String, String>,
 }
 
 /// A parameter of a fit, or an error naming it.
@@ -181,6 +188,13 @@ impl ModelSpec {
             later_force_offset_n: fit.parameter(Param::ForceOffsetN),
             force_drift_n_per_s: fit.parameter(Param::ForceDriftNPerS),
             nrmse_percent: fit.nrmse_percent,
+            undetermined: fit
+                .parameters
+                .iter()
+                .filter_map(|p| {
+                    super::report::undetermined_reason(fit, p).map(|why| (p.param.id().into(), why))
+                })
+                .collect(),
         })
     }
 
@@ -516,6 +530,7 @@ mod tests {
             later_force_offset_n: None,
             force_drift_n_per_s: None,
             nrmse_percent: 1.0,
+            undetermined: BTreeMap::new(),
         }
     }
 
