@@ -190,16 +190,19 @@ fn disagreement(
     if contact.is_empty() {
         return None;
     }
-    contact.sort_by(f64::total_cmp);
-    speeds.sort_by(f64::total_cmp);
-    let d = contact[contact.len() / 2];
+    // (Order statistics by selection: the values a full sort puts at these indices.)
+    let at = |v: &mut [f64], k: usize| *v.select_nth_unstable_by(k, f64::total_cmp).1;
+    let middle = contact.len() / 2;
+    let d = at(&mut contact, middle);
     // The damping is judged at a speed the record moves at: the 90th-percentile contact
     // speed, or the median of the contact points that move (faster than the loading speed
     // fraction of the 99.9th percentile) where that is faster. A ramp-and-hold is still
     // 98 % of its contact: its 90th percentile is the hold's zero, where any damping agrees.
-    let fast = speeds[((speeds.len() - 1) as f64 * 0.999) as usize];
-    let moving = speeds.partition_point(|s| *s <= crate::phases::LOADING_SPEED_FRACTION * fast);
-    let v = speeds[(speeds.len() - 1) * 9 / 10].max(speeds[(moving + speeds.len() - 1) / 2]);
+    let last = speeds.len() - 1;
+    let fast = at(&mut speeds, (last as f64 * 0.999) as usize);
+    let slow = crate::phases::LOADING_SPEED_FRACTION * fast;
+    let moving = speeds.iter().filter(|s| **s <= slow).count();
+    let v = at(&mut speeds, last * 9 / 10).max(at(&mut speeds, (moving + last) / 2));
     let (n, stiffness, lambda, n_fit, tolerance) = match *online {
         AnyParameters::KelvinVoigt(p) => (
             1.0,

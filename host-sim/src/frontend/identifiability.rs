@@ -416,13 +416,16 @@ pub fn relaxation_verdict(
 ) -> Vec<Verdict> {
     let (depth, rate) = front.series_depth_and_rate();
     let t = &front.series.time_s;
-    let moving: Vec<f64> = (0..depth.len())
+    let mut moving: Vec<f64> = (0..depth.len())
         .filter(|&i| depth[i] > 0.0)
         .map(|i| rate[i].abs())
         .collect();
-    let mut sorted = moving.clone();
-    sorted.sort_by(f64::total_cmp);
-    let typical = sorted.get(sorted.len() * 9 / 10).copied().unwrap_or(0.0);
+    let k = moving.len() * 9 / 10;
+    let typical = if k < moving.len() {
+        *moving.select_nth_unstable_by(k, f64::total_cmp).1
+    } else {
+        0.0
+    };
     let mut longest: f64 = 0.0;
     let mut start: Option<f64> = None;
     for i in 0..depth.len() {

@@ -447,12 +447,11 @@ pub fn analyse_oriented(
 /// [`crate::phases::speed_threshold`]).
 fn loading_speed(series: &Series) -> f64 {
     let mut speeds: Vec<f64> = series.rate_m_per_s.iter().map(|v| v.abs()).collect();
-    speeds.sort_by(f64::total_cmp);
-    crate::phases::LOADING_SPEED_FRACTION
-        * speeds
-            .get(((speeds.len().max(1) - 1) as f64 * 0.999) as usize)
-            .copied()
-            .unwrap_or(0.0)
+    if speeds.is_empty() {
+        return 0.0;
+    }
+    let k = ((speeds.len() - 1) as f64 * 0.999) as usize;
+    crate::phases::LOADING_SPEED_FRACTION * *speeds.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
 /// The loading curve and the quiet points around it: points moving in faster than the
