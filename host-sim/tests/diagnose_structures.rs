@@ -945,8 +945,8 @@ fn a_delay_the_contact_edges_do_not_show_is_named_from_its_lag_with_only_the_com
 /// fitted τ slid along the valley λ − κ·τ to 5.05-5.16 ms with the damping held at 0 and a
 /// standard error of 0.07-0.09 ms from the RSS's curvature (27 standard errors off). Read
 /// from the RSS's profile (`solver::delay_se`), the delay is either within three standard
-/// errors of the truth or, not resolved from 0, reported with only λ − κ·τ determined
-/// (within 1.5 N·s/m of the truth's −35.5).
+/// errors of the truth (5.12 ± 0.99, 5.16 ± 1.33, 8.00 ± 0.54 ms) or, not resolved from 0,
+/// reported with only λ − κ·τ determined (within 1.5 N·s/m of the truth's −35.5).
 #[test]
 fn a_delay_the_edges_fix_loosely_gets_an_honest_standard_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -964,11 +964,20 @@ fn a_delay_the_edges_fix_loosely_gets_an_honest_standard_error() {
         };
         let tau = p(Param::DelayS);
         match tau.determination {
+            // Within three standard errors, and those not so wide as to say nothing (the
+            // four seeds: 0.5-1.3 ms).
             Determination::Determined => assert!(
-                (tau.value - delay).abs() <= 3.0 * tau.standard_error,
+                (tau.value - delay).abs() <= 3.0 * tau.standard_error && tau.standard_error < 2e-3,
                 "seed {seed}: τ {tau:?}"
             ),
             Determination::DampingCombination(Param::Lambda) => {
+                // Not resolved from 0 by its own standard error (kept for the report), or
+                // named from the lag alone.
+                assert!(
+                    tau.value.abs() <= 3.0 * tau.standard_error
+                        || d.final_fit.nonlinear.delay_as_damping,
+                    "seed {seed}: τ {tau:?}"
+                );
                 let combination = p(Param::Lambda).value - p(Param::Kappa).value * tau.value;
                 assert!(
                     (combination - (lambda - kappa * delay)).abs() < 1.5,

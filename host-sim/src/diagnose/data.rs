@@ -212,6 +212,11 @@ pub struct Prepared {
     /// held out in fold `b mod FOLDS`), or `None` for contiguous fifths of the fit window:
     /// set by the workflow ([`super::scoring::interleaved_block`]), `None` as prepared.
     pub cv_block: Option<usize>,
+    /// N_eff / N of the sensor noise ([`super::scoring::noise_sample_fraction`]), measured
+    /// once by the workflow ([`super::diagnose`]) for every fit's standard errors (σ² per
+    /// effective sample); `None` as prepared or where the record shows no noise to
+    /// measure (then each fit's own [`super::solver::Fit::residual_sample_fraction`]).
+    pub noise_fraction: Option<f64>,
 }
 
 /// Why a log cannot be diagnosed.
@@ -448,6 +453,7 @@ fn assemble(
     let kink_steps = kink_steps(&kink, &rate, &raw_depth, block, dt);
     Prepared {
         cv_block: None,
+        noise_fraction: None,
         dt,
         time_s: (0..blocks).map(|b| avg(time_s, b)).collect(),
         depth_m: depth,

@@ -330,6 +330,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let interleaved = Prepared {
         cv_block: scoring::interleaved_block(data, data.fit_start(), noise_fraction)
             .filter(|_| options.interleave_folds),
+        noise_fraction,
         ..data.clone()
     };
     let data = &interleaved;

@@ -16,7 +16,8 @@ use super::{Candidate, Diagnosis, Localisation, Options, PHASE_ORDER};
 use crate::plots::{self, Chart, Series, PALETTE};
 
 /// Parameters of a fit as a JSON object `{name: value}` (SI units, names as in the
-/// report) and their standard errors as a second object (`null` where not estimated).
+/// report) and their standard errors as a second object (`null` where not estimated or
+/// where the record did not determine the parameter: its reason says what it did).
 fn parameters_json(fit: &Fit) -> (Value, Value) {
     let mut values = Map::new();
     let mut errors = Map::new();
@@ -24,7 +25,7 @@ fn parameters_json(fit: &Fit) -> (Value, Value) {
         values.insert(p.param.id().into(), json!(p.value));
         errors.insert(
             p.param.id().into(),
-            if p.standard_error.is_finite() {
+            if p.standard_error.is_finite() && p.determination == Determination::Determined {
                 json!(p.standard_error)
             } else {
                 Value::Null
@@ -70,11 +71,13 @@ pub(super) fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
                 "{}, where a delay τ is to first order a change −κ·τ of the damping: only λ − κ·τ is determined ({combination:.4e} N·s/m), not each (with {}){}; {}",
                 if fit.nonlinear.delay_as_damping {
                     "the delay shows as a lag of the force in contact, not clearly at the contact onsets, lift-offs and kinks of the motion".to_string()
-                } else if !delay_se.is_nan() {
+                } else if delay_se.is_finite() {
                     format!(
                         "the contact onsets, lift-offs and kinks of the motion fix the delay only to ± {delay_se:.2e} s, less than {} standard errors from 0",
                         super::solver::DELAY_RESOLVED_T
                     )
+                } else if !delay_se.is_nan() {
+                    "the contact onsets, lift-offs and kinks of the motion do not fix the delay within its search range".to_string()
                 } else {
                     "the record never leaves contact".to_string()
                 },

@@ -867,16 +867,15 @@ fn fit_on(
     // The residual variance per effective sample: coloured noise (N_eff < N, the same
     // fraction the BIC counts by, `scoring::samples_counted`) determines every parameter
     // less well than as many independent samples would (the variance of a coefficient
-    // grows by about N/N_eff for a regressor slower than the noise's correlation).
+    // grows by about N/N_eff for a regressor slower than the noise's correlation; for a
+    // parameter fixed by fast features, a delay at the contact edges, under a low-pass
+    // noise this overstates it).
     let sigma2 = rss
         / (n - design.columns.len()).max(1) as f64
-        / if effort.uncertainties {
-            super::scoring::noise_sample_fraction(data)
-                .unwrap_or(residual_sample_fraction)
-                .clamp(1e-3, 1.0)
-        } else {
-            1.0
-        };
+        / data
+            .noise_fraction
+            .unwrap_or(residual_sample_fraction)
+            .clamp(1e-3, 1.0);
     let se: Vec<f64> = (0..solve.beta.len())
         .map(|j| (sigma2 * solve.covariance[(j, j)]).max(0.0).sqrt())
         .collect();
@@ -1020,7 +1019,9 @@ fn name_parameters(
 /// fitted), and there (or where the delay was named from the lag in contact alone,
 /// [`Nonlinear::delay_as_damping`]) also a delay and the plain damping (only λ − κ·τ is
 /// fitted). Their
-/// standard errors become NaN (not reported).
+/// standard errors become NaN (not reported). So are a delay within
+/// [`DELAY_RESOLVED_T`] standard errors of 0 and the plain damping where the two trade,
+/// their standard errors kept for the workflow and the report's reason (not reported).
 fn mark_undetermined(
     out: &mut [Estimate],
     effects: &BTreeSet<Effect>,
@@ -1077,13 +1078,14 @@ fn mark_undetermined(
         mark_damping_combination(out);
     }
     // A delay its RSS profile does not resolve from 0 (`delay_se`) is determined only
-    // through λ − κ·τ where the two trade: its standard errors are kept (τ's says how
-    // little the edges and kinks fix it; λ's, at the fitted τ, is the combination's).
+    // through λ − κ·τ where the two trade: its standard errors are kept inside (τ's for
+    // the report's reason, how little the edges and kinks fix it; λ's, at the fitted τ,
+    // the combination's, for the workflow's lag test), not reported (`report`).
     let unresolved = out.iter().any(|e| {
         e.param == Param::DelayS
             && e.determination == Determination::Determined
             && !e.standard_error.is_nan()
-            && (e.value.is_nan() || e.value <= DELAY_RESOLVED_T * e.standard_error)
+            && (e.value.is_nan() || e.value.abs() <= DELAY_RESOLVED_T * e.standard_error)
     });
     if unresolved && trades {
         for (param, other) in [
@@ -1183,11 +1185,14 @@ fn nonlinear_se(
     }
 }
 
-/// Standard error of a delay τ \[s\] from the profile of the RSS (`rss`, the linear
-/// coefficients re-solved at each τ) on each side of the optimum `tau`: the distance at
-/// which the RSS first rises by σ² (`sigma2`, per effective sample), found at 1, 2, 4, 8 …
-/// raw samples (`raw_dt` \[s\]) within `range`, the larger of the two sides. Where it
-/// does not rise by σ² within the range on a side, infinite.
+/// Standard error of a delay τ \[s\] from the RSS along τ (`rss`: the linear coefficients
+/// re-solved at each τ, the other nonlinear parameters held) on each side of the optimum
+/// `tau`: the distance at which the RSS first rises by σ² (`sigma2`, per effective
+/// sample), found at 1, 2, 4, 8 … raw samples (`raw_dt` \[s\]; the last at the bound of
+/// `range`), the larger of the two sides. Where it does not rise by σ² up to the range's
+/// bound on a side, infinite. A point along the way lower than the optimum (a fit that
+/// ended off the lowest point of the raw-sample grid) only widens it: the distance is
+/// still measured from the fitted τ.
 ///
 /// Not the curvature at the optimum: a delayed model's force steps (the damping's λ·δ̇
 /// at a contact edge, the rate's step at a kink of the motion) land on whole raw samples,
@@ -1203,24 +1208,34 @@ fn delay_se(
     raw_dt: f64,
     sigma2: f64,
 ) -> f64 {
+    if raw_dt.is_nan() || raw_dt <= 0.0 {
+        return f64::INFINITY;
+    }
     let r0 = rss(tau);
     let side = |sign: f64| -> f64 {
+        // How far the range reaches on this side.
+        let room = if sign < 0.0 {
+            tau - range.0
+        } else {
+            range.1 - tau
+        };
         let mut before = 0.0;
         let mut step = raw_dt;
         loop {
-            let x = tau + sign * step;
-            if x < range.0 || x > range.1 {
+            // (The last step lands on the range's bound.)
+            let here = step.min(room);
+            if here <= before {
                 return f64::INFINITY;
             }
-            let rise = (rss(x) - r0) / sigma2;
+            let rise = (rss(tau + sign * here) - r0) / sigma2;
             if rise.is_nan() {
                 return f64::INFINITY;
             }
             if rise >= 1.0 {
                 // Between the last point below σ² and this one; quadratic from this one.
-                return (step / rise.sqrt()).max(before);
+                return (here / rise.sqrt()).max(before);
             }
-            before = step;
+            before = here;
             step *= 2.0;
         }
     };
@@ -1243,16 +1258,33 @@ mod tests {
         let quadratic = |x: f64| 1.0 + sigma2 * ((x - tau) / 4e-4).powi(2);
         let se = delay_se(&quadratic, tau, range, raw_dt, sigma2);
         assert!((se - 4e-4).abs() < 1e-9, "{se}");
-        // The same valley 2.5 ms wide (s = 2.5 ms) with a step of 3σ² on every raw sample
-        // either side of the optimum: the curvature over a fraction of a sample would
-        // read the step (s ≈ 0.05 ms); the profile rises by σ² only where the valley does.
+        // A valley 2.5 ms wide (s = 2.5 ms) that is rough at the raw-sample scale: 3σ²
+        // higher over (0.03, 0.5) ms past every whole raw sample from the optimum (a
+        // damping step landing on the next raw sample). The curvature over the fit's
+        // finite difference (0.06 ms) reads the roughness (s ≈ 0.035 ms); the profile at
+        // whole samples, the valley.
         let rough = |x: f64| {
             let d = x - tau;
-            let steps = if d.abs() > 0.5e-3 { 3.0 } else { 0.0 };
+            let within = (d.abs() * 1e3).fract();
+            let steps = if (0.03..0.5).contains(&within) {
+                3.0
+            } else {
+                0.0
+            };
             1.0 + sigma2 * ((d / 2.5e-3).powi(2) + steps)
         };
+        let h = 6e-5;
+        let curvature = (rough(tau + h) - 2.0 * rough(tau) + rough(tau - h)) / (h * h);
+        assert!((2.0 * sigma2 / curvature).sqrt() < 1e-4);
         let se = delay_se(&rough, tau, range, raw_dt, sigma2);
-        assert!((0.5e-3..=2.5e-3).contains(&se), "{se}");
+        assert!((2.0e-3..=3.0e-3).contains(&se), "{se}");
+        // A valley wider than the range on one side: the last step lands on the bound, and
+        // a rise there still counts.
+        // (9 ms wide about 2 ms: the doubling steps reach 8 ms below, then the bound at
+        // 12 ms, not 16 ms past it.)
+        let wide = |x: f64| 1.0 + sigma2 * ((x - 0.002) / 9e-3).powi(2);
+        let se = delay_se(&wide, 0.002, range, raw_dt, sigma2);
+        assert!((se - 9e-3).abs() < 1e-6, "{se}");
         // Steep below (a damping held at 0 cannot fall further), flat above: the larger
         // side, infinite.
         let one_sided = |x: f64| {
