@@ -1099,7 +1099,7 @@ fn mark_undetermined(
     }
 }
 
-/// Fewest standard errors ([`delay_se`]) a delay lies from 0 for the record to determine it
+/// Fewest standard errors (`delay_se`, read from the RSS along τ) a delay lies from 0 for the record to determine it
 /// apart from the damping (t = τ/s.e.; a parameter within three standard errors of 0 is
 /// not resolved from it). On the independent generator (seeds 7000-7019 and 7200-7219)
 /// the 17 delays of taps, ramps and ramp-and-holds it leaves unresolved were 0-52 % off
