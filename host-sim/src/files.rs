@@ -199,8 +199,7 @@ fn disagreement(
     // fraction of the 99.9th percentile) where that is faster. A ramp-and-hold is still
     // 98 % of its contact: its 90th percentile is the hold's zero, where any damping agrees.
     let last = speeds.len() - 1;
-    let fast = at(&mut speeds, (last as f64 * 0.999) as usize);
-    let slow = crate::phases::LOADING_SPEED_FRACTION * fast;
+    let slow = crate::phases::loading_speed_of(&mut speeds);
     let moving = speeds.iter().filter(|s| **s <= slow).count();
     let v = at(&mut speeds, last * 9 / 10).max(at(&mut speeds, (moving + last) / 2));
     let (n, stiffness, lambda, n_fit, tolerance) = match *online {

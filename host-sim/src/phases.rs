@@ -114,9 +114,17 @@ pub fn speed_threshold(position_m: &[f64], sample_time_s: f64) -> f64 {
         .windows(span + 1)
         .map(|w| ((w[span] - w[0]) / (span as f64 * sample_time_s)).abs())
         .collect();
+    loading_speed_of(&mut speeds)
+}
+
+/// [`LOADING_SPEED_FRACTION`] of the 99.9th percentile of `speeds` \[m/s\] (by selection:
+/// `speeds` is reordered); 0 for none.
+pub fn loading_speed_of(speeds: &mut [f64]) -> f64 {
+    if speeds.is_empty() {
+        return 0.0;
+    }
     let at = ((speeds.len() - 1) as f64 * 0.999) as usize;
-    let p999 = *speeds.select_nth_unstable_by(at, f64::total_cmp).1;
-    LOADING_SPEED_FRACTION * p999
+    LOADING_SPEED_FRACTION * *speeds.select_nth_unstable_by(at, f64::total_cmp).1
 }
 
 /// Runs of equal phase: (phase, start, end exclusive).

@@ -1075,7 +1075,7 @@ fn mark_undetermined(
     }
     let trades = delay_trades_with_damping(|e| effects.contains(&e), hold_damping);
     if (in_contact_throughout || nl.delay_as_damping) && trades {
-        mark_damping_combination(out);
+        mark_damping_combination(out, false);
     }
     // A delay its RSS profile does not resolve from 0 (`delay_se`) is determined only
     // through λ − κ·τ where the two trade: its standard errors are kept inside (τ's for
@@ -1088,14 +1088,7 @@ fn mark_undetermined(
             && (e.value.is_nan() || e.value.abs() <= DELAY_RESOLVED_T * e.standard_error)
     });
     if unresolved && trades {
-        for (param, other) in [
-            (Param::DelayS, Param::Lambda),
-            (Param::Lambda, Param::DelayS),
-        ] {
-            if let Some(e) = out.iter_mut().find(|e| e.param == param) {
-                e.determination = Determination::DampingCombination(other);
-            }
-        }
+        mark_damping_combination(out, true);
     }
 }
 
@@ -1119,15 +1112,18 @@ fn delay_trades_with_damping(has: impl Fn(Effect) -> bool, hold_damping: bool) -
 }
 
 /// Marks a model's delay and damping as determined only in their combination λ − κ·τ
-/// ([`Determination::DampingCombination`]); their standard errors become NaN.
-fn mark_damping_combination(out: &mut [Estimate]) {
+/// ([`Determination::DampingCombination`]); their standard errors become NaN unless
+/// `keep_standard_errors` (never reported either way).
+fn mark_damping_combination(out: &mut [Estimate], keep_standard_errors: bool) {
     for (param, other) in [
         (Param::DelayS, Param::Lambda),
         (Param::Lambda, Param::DelayS),
     ] {
         if let Some(e) = out.iter_mut().find(|e| e.param == param) {
             e.determination = Determination::DampingCombination(other);
-            e.standard_error = f64::NAN;
+            if !keep_standard_errors {
+                e.standard_error = f64::NAN;
+            }
         }
     }
 }
@@ -1139,7 +1135,7 @@ fn mark_damping_combination(out: &mut [Estimate]) {
 pub(super) fn mark_delay_as_damping(fit: &mut Fit, hold_damping: bool) {
     fit.nonlinear.delay_as_damping = true;
     if delay_trades_with_damping(|e| fit.effects.contains(&e), hold_damping) {
-        mark_damping_combination(&mut fit.parameters);
+        mark_damping_combination(&mut fit.parameters, false);
     }
 }
 

@@ -447,11 +447,7 @@ pub fn analyse_oriented(
 /// [`crate::phases::speed_threshold`]).
 fn loading_speed(series: &Series) -> f64 {
     let mut speeds: Vec<f64> = series.rate_m_per_s.iter().map(|v| v.abs()).collect();
-    if speeds.is_empty() {
-        return 0.0;
-    }
-    let k = ((speeds.len() - 1) as f64 * 0.999) as usize;
-    crate::phases::LOADING_SPEED_FRACTION * *speeds.select_nth_unstable_by(k, f64::total_cmp).1
+    crate::phases::loading_speed_of(&mut speeds)
 }
 
 /// The loading curve and the quiet points around it: points moving in faster than the
