@@ -1507,3 +1507,83 @@ fn nothing_faster_than_the_record_resolves_is_named() {
         );
     }
 }
+
+/// (time \[s\], position \[m\], force \[N\]) of 12 s of taps with lift-off at 1 kHz into a
+/// power-law material with a plain damping, F = k·δⁿ + λ·δ̇ clipped at 0, with white
+/// noise of 0.5 % of the force range, a 0.3 N offset and a 1 µm encoder; and (k, n).
+fn power_law_taps(seed: u64) -> (Vec<(f64, f64, f64)>, f64, f64) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (k, n) = (rng.random_range(1e5..1e6), rng.random_range(1.3..1.8));
+    let lambda = rng.random_range(5.0..30.0);
+    let w = 2.0 * std::f64::consts::PI * rng.random_range(1.0..3.0);
+    let fs = 1000.0;
+    let motion = |t: f64| {
+        (
+            -0.4e-3 + 1.4e-3 * (0.5 - 0.5 * (w * t).cos()),
+            0.7e-3 * w * (w * t).sin(),
+        )
+    };
+    let force: Vec<(f64, f64)> = (0..12_000)
+        .map(|i| {
+            let (z, v) = motion(i as f64 / fs);
+            let f = if z > 0.0 {
+                (k * z.powf(n) + lambda * v).max(0.0)
+            } else {
+                0.0
+            };
+            (z, f)
+        })
+        .collect();
+    let range = force.iter().map(|p| p.1).fold(0.0, f64::max);
+    let noise = Normal::new(0.0, 0.005 * range).unwrap();
+    let rows = force
+        .iter()
+        .enumerate()
+        .map(|(i, (z, f))| {
+            let x = 2.0e-3 + z;
+            (
+                i as f64 / fs,
+                (x / 1e-6).round() * 1e-6,
+                0.3 + f + noise.sample(&mut rng),
+            )
+        })
+        .collect();
+    (rows, k, n)
+}
+
+/// A power law's stiffness and exponent trade (k·δⁿ at the depths a record visits is
+/// nearly k·(1 + ε)·δ^(n − ε/ln δ̄)), and both trade with the contact point: standard errors
+/// that hold the other parameters at their fitted values are far too small. On the
+/// independent generator's 80 power-law logs k was within 10 % of the truth in 74 and
+/// within two such standard errors in none (n in 33). Read from the joint covariance of
+/// the coefficients and the knobs (`solver::Joint`), the truth lies within three standard
+/// errors of both, and k's is not so wide as to say nothing. (Seeds 0-3, not looked at
+/// before the asserts were written.)
+#[test]
+fn a_power_law_s_stiffness_and_exponent_get_joint_standard_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in 0..4 {
+        let (rows, k, n) = power_law_taps(seed);
+        let d = diagnose_rows(dir.path(), &format!("pl-{seed}.csv"), &rows);
+        assert!(
+            d.effects_added().contains(&"power_law_stiffness"),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+        for (param, truth) in [(Param::K, k), (Param::N, n)] {
+            let p = d
+                .final_fit
+                .parameters
+                .iter()
+                .find(|p| p.param == param)
+                .unwrap();
+            assert_eq!(p.determination, Determination::Determined, "seed {seed}");
+            assert!(
+                (p.value - truth).abs() <= 3.0 * p.standard_error && p.standard_error < 0.2 * truth,
+                "seed {seed}: {param:?} {} ± {} for {truth}",
+                p.value,
+                p.standard_error
+            );
+        }
+    }
+}

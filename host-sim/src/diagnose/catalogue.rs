@@ -386,8 +386,9 @@ impl Serialize for Param {
 /// What the record determined of a fitted parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Determination {
-    /// Fitted inside its search range (its standard error from the RSS's curvature, a
-    /// delay's from the RSS's profile, both per effective sample of a coloured noise).
+    /// Fitted inside its search range (its standard error from the joint covariance of
+    /// the coefficients and the knobs, a delay's from the RSS's profile, both per
+    /// effective sample of a coloured noise).
     Determined,
     /// Held at a bound of its search range (`Knob::at_bound`): the record's optimum may
     /// lie beyond it (an exponent pushed to 3.5, a stiffening rate at 8/δ_max, a contact

@@ -722,7 +722,11 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             .map(|c| {
                 fit_one((c.effect, c.replaces), &c.fit.nonlinear, Effort::REFINE)
                     .filter(|r| r.fit.rss <= c.fit.rss)
-                    .unwrap_or(c)
+                    .unwrap_or_else(|| {
+                        let mut c = c;
+                        solver::add_uncertainties(data, &mut c.fit);
+                        c
+                    })
             })
             .collect();
         candidates.extend(rest.into_iter().map(|mut c| {
