@@ -395,6 +395,11 @@ pub enum Determination {
     /// at the widest search), and a standard error from the RSS's curvature at a point
     /// that is not its minimum would claim a precision the fit does not have.
     AtSearchBound,
+    /// Fitted inside its search range, but the RSS rises by less than the residual
+    /// variance σ² from there to a bound of the range on one side (its standard error
+    /// is infinite): any value on that side fits as well (a delay whose record has no
+    /// edge or kink that shows it, under a law it does not trade with).
+    Unresolved,
     /// Held at 0 because the record cannot identify it (the baseline's damping λ on a
     /// record that passes each depth at one speed: see the diagnosis's
     /// `not_identifiable`).

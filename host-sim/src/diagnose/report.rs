@@ -43,6 +43,10 @@ pub(super) fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
             "held at a bound of its search range: the record's optimum may lie beyond, so the value is the range's"
                 .into(),
         ),
+        Determination::Unresolved => Some(
+            "the record's residual changes by less than its noise from this value to a bound of the search range: any value on that side fits as well"
+                .into(),
+        ),
         Determination::Held => Some(
             "held at 0: the record cannot identify it (see not_identifiable)".into(),
         ),

@@ -1092,8 +1092,8 @@ fn name_parameters(
 /// that never leaves contact (`in_contact_throughout`: only their combination is
 /// fitted), and there (or where the delay was named from the lag in contact alone,
 /// [`Nonlinear::delay_as_damping`]) also a delay and the plain damping (only λ − κ·τ is
-/// fitted). Their
-/// standard errors become NaN (not reported). So are a delay within
+/// fitted), and any other with an infinite standard error ([`Determination::Unresolved`]).
+/// Their standard errors become NaN (not reported). So are a delay within
 /// [`DELAY_RESOLVED_T`] standard errors of 0 and the plain damping where the two trade,
 /// their standard errors kept for the workflow and the report's reason (not reported).
 fn mark_undetermined(
@@ -1163,6 +1163,15 @@ fn mark_undetermined(
     });
     if unresolved && trades {
         mark_damping_combination(out, true);
+    }
+    // Any other parameter the record leaves flat to a bound on one side (an infinite
+    // standard error: a delay's profile, a knob's curvature where the joint covariance
+    // is singular).
+    for e in out.iter_mut() {
+        if e.determination == Determination::Determined && e.standard_error == f64::INFINITY {
+            e.determination = Determination::Unresolved;
+            e.standard_error = f64::NAN;
+        }
     }
 }
 
@@ -1460,7 +1469,50 @@ fn delay_se(
 
 #[cfg(test)]
 mod tests {
-    use super::delay_se;
+    use super::*;
+
+    /// A delay whose RSS stays within σ² of its optimum up to a bound of its range (an
+    /// infinite profile standard error) under a power law, which it does not trade with,
+    /// is not reported as determined (a review found it "determined" with a `null`
+    /// standard error and no reason); a finite one stays determined.
+    #[test]
+    fn a_parameter_flat_to_a_bound_is_unresolved() {
+        let effects: BTreeSet<Effect> = [Effect::PowerLawStiffness, Effect::TimeDelay].into();
+        let scale = Scales {
+            depth_m: 1e-3,
+            rate_m_per_s: 1e-3,
+            duration_s: 20.0,
+            dt_s: 1e-3,
+            contact_span: 0.2,
+            plastic_max: 0.4,
+            observed_set: 0.0,
+        };
+        let nl = Nonlinear {
+            n: 1.4,
+            delay_s: 0.005,
+            ..Nonlinear::default()
+        };
+        let estimate = |param, value, standard_error| Estimate {
+            param,
+            value,
+            standard_error,
+            determination: Determination::Determined,
+        };
+        let mut out = vec![
+            estimate(Param::K, 1e5, 1e3),
+            estimate(Param::N, 1.4, 0.01),
+            estimate(Param::DelayS, 0.005, f64::INFINITY),
+        ];
+        mark_undetermined(&mut out, &effects, &nl, &scale, false, false);
+        assert_eq!(out[2].determination, Determination::Unresolved);
+        assert!(out[2].standard_error.is_nan());
+        assert!(out[..2]
+            .iter()
+            .all(|e| e.determination == Determination::Determined));
+        out[2] = estimate(Param::DelayS, 0.005, 0.001);
+        mark_undetermined(&mut out, &effects, &nl, &scale, false, false);
+        assert_eq!(out[2].determination, Determination::Determined);
+    }
 
     /// The profile's standard error is the curvature's on a smooth valley, is not fooled by
     /// a profile rough at the raw-sample scale (the damping step landing on whole samples),
