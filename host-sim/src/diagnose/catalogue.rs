@@ -392,13 +392,15 @@ pub enum Determination {
     Determined,
     /// Held at a bound of its search range (`Knob::at_bound`): the record's optimum may
     /// lie beyond it (an exponent pushed to 3.5, a stiffening rate at 8/δ_max, a contact
-    /// at the widest search), and a standard error from the RSS's curvature at a point
-    /// that is not its minimum would claim a precision the fit does not have.
+    /// at the widest search), and a standard error at a point that is not its minimum
+    /// would claim a precision the fit does not have.
     AtSearchBound,
-    /// Fitted inside its search range, but the RSS rises by less than the residual
-    /// variance σ² from there to a bound of the range on one side (its standard error
-    /// is infinite): any value on that side fits as well (a delay whose record has no
-    /// edge or kink that shows it, under a law it does not trade with).
+    /// Fitted inside its search range, but its standard error is infinite: the RSS
+    /// rises by less than the residual variance σ² from there to a bound of the range on
+    /// one side (a delay's profile: a record with no edge or kink that shows it, under a
+    /// law it does not trade with), or does not curve up along it at all (a knob's
+    /// curvature where the joint covariance is not available). Any value on that side
+    /// fits as well.
     Unresolved,
     /// Held at 0 because the record cannot identify it (the baseline's damping λ on a
     /// record that passes each depth at one speed: see the diagnosis's

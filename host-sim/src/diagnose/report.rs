@@ -44,7 +44,7 @@ pub(super) fn undetermined_reason(fit: &Fit, p: &Estimate) -> Option<String> {
                 .into(),
         ),
         Determination::Unresolved => Some(
-            "the record's residual changes by less than its noise from this value to a bound of the search range: any value on that side fits as well"
+            "the record's residual rises by less than its noise away from this value on one side (to a bound of the search range, or at all): any value on that side fits as well"
                 .into(),
         ),
         Determination::Held => Some(

@@ -1245,8 +1245,13 @@ enum Slot {
 /// with its exponent n: on the independent generator's 80 power-law logs, the truth
 /// was within 2 such standard errors of k in none). The delay is not in J: its
 /// force steps land on whole samples (its standard error is read from its profile,
-/// [`delay_se`]); neither is a knob at a bound of its search range (held there). A
-/// coefficient held at 0 by the active set has standard error 0.
+/// [`delay_se`]), so a delayed model's coefficients are conditional on τ: the damping's
+/// is that of λ − κ·τ at the fitted τ, which the workflow's lag test reads, not λ's own
+/// (a review: on λ = 60 ramps with a resolved delay, κ·s.e.(τ) was 1.4-2.4 N·s/m against
+/// λ's 0.33; propagating τ's variance through dθ/dτ is not done). Neither is a knob at a
+/// bound of its search range in J (held there), nor a contact position at the bound of a
+/// narrower range that the fit reports as determined: what trades with them is
+/// conditional on them. A coefficient held at 0 by the active set has standard error 0.
 struct Joint {
     slots: Vec<Slot>,
     covariance: DMatrix<f64>,
@@ -1255,7 +1260,8 @@ struct Joint {
 impl Joint {
     /// The joint covariance at the optimum `nl` (`design` and `solve` its final
     /// evaluation, `sigma2` the residual variance per effective sample); `None` where
-    /// JᵀJ is singular (two knobs the record cannot tell apart).
+    /// JᵀJ is singular (two knobs the record cannot tell apart), an evaluation fails or a
+    /// derivative column is 0: then every standard error is the conditional one.
     #[allow(clippy::too_many_arguments)]
     fn of(
         data: &Prepared,
@@ -1285,16 +1291,27 @@ impl Joint {
         };
         // ∂F/∂knob by central differences of 0.1 % of the knob's range (of its value on
         // a logarithmic range), each side evaluated alike (its contact weights iterated
-        // as the fit's), so that what the weights add cancels.
+        // the same way, 2 times), so that what the weights add cancels. A knob that moves
+        // a contact edge (the contact point, the later contacts' shift, the plastic set)
+        // steps by at least the depth a fitting sample travels at the record's RMS rate:
+        // a finer step makes whole samples cross the edge and reads their jump λ·v/(2h),
+        // not the slope (a review: a Kelvin-Voigt tap record's contact standard error
+        // grew in proportion to the step, from 0.1 to 10 times 0.1 % of the range).
+        let edge_step = scale.rate_m_per_s * scale.dt_s;
         let derivatives: Vec<Vec<f64>> = knobs
             .par_iter()
             .map(|&k| {
                 let (lo, hi, log) = k.range(scale);
                 let x0 = nl.get(k);
-                let h = if log {
-                    1e-3 * x0.abs()
-                } else {
-                    1e-3 * (hi - lo).abs()
+                let h = match k {
+                    _ if log => 1e-3 * x0.abs(),
+                    Knob::ContactPosition | Knob::ContactShift => {
+                        (1e-3 * (hi - lo).abs()).max(edge_step)
+                    }
+                    Knob::PlasticFraction => {
+                        (1e-3 * (hi - lo).abs()).max(edge_step / scale.depth_m)
+                    }
+                    _ => 1e-3 * (hi - lo).abs(),
                 };
                 let at = |x: f64| {
                     let mut t = *nl;
@@ -1374,7 +1391,8 @@ impl Joint {
 /// Standard error of a nonlinear parameter with the other knobs held (a conditional
 /// one): a delay's read from its profile ([`delay_se`]); another's from the curvature of
 /// the RSS at the optimum, var ≈ 2σ²/RSS'' (the linear coefficients re-solved at each
-/// point; σ² per effective sample), where the [`Joint`] covariance is singular.
+/// point; σ² per effective sample; infinite where it does not curve up), where the
+/// knob is not in the [`Joint`] covariance or there is none.
 fn nonlinear_se(
     data: &Prepared,
     start: usize,
@@ -1470,6 +1488,62 @@ fn delay_se(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A screen (no standard errors of its knobs, its coefficients' conditional on them)
+    /// given them by `add_uncertainties`: the same values, every parameter's standard
+    /// error finite, k's wider than the conditional one (its trade with n). Power-law
+    /// taps, F = 3e5·δ^1.5 + 10·δ̇, white noise of 20 mN.
+    #[test]
+    fn a_screen_kept_as_it_is_gets_standard_errors() {
+        use rand::{rngs::StdRng, SeedableRng};
+        use rand_distr::{Distribution, Normal};
+        let mut rng = StdRng::seed_from_u64(1);
+        let noise = Normal::new(0.0, 0.02).unwrap();
+        let w = 2.0 * std::f64::consts::PI * 1.3;
+        let t: Vec<f64> = (0..8000).map(|i| i as f64 * 1e-3).collect();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&t| -0.2e-3 + 0.6e-3 * (1.0 - (w * t).cos()))
+            .collect();
+        let f: Vec<f64> = t
+            .iter()
+            .zip(&x)
+            .map(|(&t, &x)| {
+                let v = 0.6e-3 * w * (w * t).sin();
+                let law = if x > 0.0 {
+                    (3e5 * x.powf(1.5) + 10.0 * v).max(0.0)
+                } else {
+                    0.0
+                };
+                law + noise.sample(&mut rng)
+            })
+            .collect();
+        let data = crate::diagnose::data::prepare_known(&t, &x, &f, 0.0, 0.0, 0.02, 1).unwrap();
+        let effects: BTreeSet<Effect> = [Effect::PowerLawStiffness].into();
+        let quick = fit(
+            &data,
+            &effects,
+            &Nonlinear::default(),
+            &knobs_of(&effects),
+            Effort::QUICK,
+        )
+        .unwrap();
+        let se = |fit: &Fit, param: Param| {
+            fit.parameters
+                .iter()
+                .find(|p| p.param == param)
+                .unwrap()
+                .standard_error
+        };
+        assert!(se(&quick, Param::N).is_nan());
+        let mut filled = quick.clone();
+        add_uncertainties(&data, &mut filled);
+        for (p, q) in filled.parameters.iter().zip(&quick.parameters) {
+            assert_eq!((p.param, p.value), (q.param, q.value));
+            assert!(p.standard_error.is_finite(), "{p:?}");
+        }
+        assert!(se(&filled, Param::K) > 3.0 * se(&quick, Param::K));
+    }
 
     /// A delay whose RSS stays within σ² of its optimum up to a bound of its range (an
     /// infinite profile standard error) under a power law, which it does not trade with,
