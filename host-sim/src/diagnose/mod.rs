@@ -657,9 +657,10 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // that of the combination along the valley where the two trade).
                 let lags_significantly = {
                     let p = |q: Param| scored.fit.parameters.iter().find(|p| p.param == q).copied();
+                    let se = scored.fit.damping_combination_se;
                     match (p(Param::Kappa), p(Param::Lambda)) {
-                        (Some(kappa), Some(lambda)) if lambda.standard_error.is_finite() => {
-                            lambda.value - kappa.value * tau + 2.0 * lambda.standard_error < 0.0
+                        (Some(kappa), Some(lambda)) if se.is_finite() => {
+                            lambda.value - kappa.value * tau + 2.0 * se < 0.0
                         }
                         _ => false,
                     }
