@@ -404,6 +404,23 @@ impl Problem<'_> {
         )
     }
 
+    /// [`Problem::evaluate`] with knob `k` moved to `x`, the others as in `nl`.
+    fn evaluate_moved(
+        &self,
+        nl: &Nonlinear,
+        k: Knob,
+        x: f64,
+    ) -> Option<(f64, Design, Solve, Vec<f64>)> {
+        let mut moved = *nl;
+        moved.set(k, x);
+        self.evaluate(&moved)
+    }
+
+    /// Time between the record's raw samples \[s\] (a fitting sample is a block of them).
+    fn raw_dt(&self) -> f64 {
+        self.data.dt / self.data.block.max(1) as f64
+    }
+
     fn to_unit(&self, k: Knob, x: f64) -> f64 {
         let (lo, hi, log) = k.range(&self.scale);
         let x = x.clamp(lo, hi);
@@ -918,19 +935,19 @@ fn fit_on(
             .unwrap_or(residual_sample_fraction)
             .clamp(1e-3, 1.0);
     let joint = if effort.uncertainties {
-        Joint::of(data, start, effects, &nl, &scale, &design, &solve, sigma2)
+        Joint::of(&problem, &nl, &design, &solve, sigma2)
     } else {
         None
     };
     // A delay's standard error from its profile (once: the parameters are named twice).
     let delay_se = if effort.uncertainties && effects.contains(&Effect::TimeDelay) {
-        nonlinear_se(data, start, effects, &nl, Knob::Delay, sigma2, &scale)
+        nonlinear_se(&problem, &nl, Knob::Delay, sigma2)
     } else {
         f64::NAN
     };
     let named = |joint: Option<&Joint>| {
         name_parameters(
-            effects,
+            &problem,
             &nl,
             &design,
             &solve,
@@ -939,9 +956,6 @@ fn fit_on(
                 joint,
                 delay_se,
             },
-            data,
-            start,
-            &scale,
             effort.uncertainties,
         )
     };
@@ -955,7 +969,7 @@ fn fit_on(
         .map_or(f64::NAN, |p| p.standard_error);
     let with_delay = joint
         .as_ref()
-        .and_then(|j| j.with_delay(data, start, effects, &nl, &scale, &solve, delay_se));
+        .and_then(|j| j.with_delay(&problem, &nl, delay_se));
     let parameters = match &with_delay {
         Some(j) => named(Some(j)),
         None => at_delay,
@@ -982,16 +996,19 @@ fn fit_on(
 /// SI values and standard errors of a fit's parameters.
 #[allow(clippy::too_many_arguments)]
 fn name_parameters(
-    effects: &BTreeSet<Effect>,
+    problem: &Problem,
     nl: &Nonlinear,
     design: &Design,
     solve: &Solve,
     uncertainty: Uncertainty<'_>,
-    data: &Prepared,
-    start: usize,
-    scale: &Scales,
     uncertainties: bool,
 ) -> Vec<Estimate> {
+    let &Problem {
+        data,
+        start,
+        effects,
+        ref scale,
+    } = problem;
     let has = |e: Effect| effects.contains(&e);
     let l = scale.depth_m;
     let col = |c: Column| design.names.iter().position(|n| *n == c);
@@ -1019,7 +1036,7 @@ fn name_parameters(
     };
     let se = |j: usize| se_of(&[(Slot::Column(j), 1.0)]);
     let knob_se = |knob: Knob| {
-        let conditional = || nonlinear_se(data, start, effects, nl, knob, sigma2, scale);
+        let conditional = || nonlinear_se(problem, nl, knob, sigma2);
         match joint {
             _ if !uncertainties => f64::NAN,
             _ if knob == Knob::Delay => delay_se,
@@ -1301,22 +1318,19 @@ impl Joint {
     /// evaluation, `sigma2` the residual variance per effective sample); `None` where
     /// JᵀJ is singular (two knobs the record cannot tell apart), an evaluation fails or a
     /// derivative column is 0: then every standard error is the conditional one.
-    #[allow(clippy::too_many_arguments)]
     fn of(
-        data: &Prepared,
-        start: usize,
-        effects: &BTreeSet<Effect>,
+        problem: &Problem,
         nl: &Nonlinear,
-        scale: &Scales,
         design: &Design,
         solve: &Solve,
         sigma2: f64,
     ) -> Option<Joint> {
-        let counted = data.counted_from(start);
-        let kept: Vec<usize> = (0..data.len() - start)
+        let scale = &problem.scale;
+        let counted = problem.data.counted_from(problem.start);
+        let kept: Vec<usize> = (0..problem.data.len() - problem.start)
             .filter(|&i| counted.as_ref().is_none_or(|c| c[i]))
             .collect();
-        let knobs: Vec<Knob> = knobs_of(effects)
+        let knobs: Vec<Knob> = knobs_of(problem.effects)
             .into_iter()
             .filter(|&k| k != Knob::Delay && k.bound_hit(nl.get(k), scale).is_none())
             .collect();
@@ -1352,11 +1366,7 @@ impl Joint {
                     }
                     _ => 1e-3 * (hi - lo).abs(),
                 };
-                let at = |x: f64| {
-                    let mut t = *nl;
-                    t.set(k, x);
-                    evaluate(data, start, effects, &t, scale, 2, None).map(|r| force(&r.1))
-                };
+                let at = |x: f64| problem.evaluate_moved(nl, k, x).map(|r| force(&r.1));
                 let (plus, minus) = rayon::join(|| at(x0 + h), || at(x0 - h));
                 let (plus, minus) = (plus?, minus?);
                 Some(
@@ -1367,19 +1377,19 @@ impl Joint {
                 )
             })
             .collect::<Option<Vec<_>>>()?;
-        let mut slots: Vec<Slot> = (0..solve.beta.len())
+        let free: Vec<usize> = (0..solve.beta.len())
             .filter(|&j| solve.covariance[(j, j)] > 0.0)
-            .map(Slot::Column)
             .collect();
-        let columns: Vec<&[f64]> = slots
+        let columns: Vec<&[f64]> = free
             .iter()
-            .map(|s| match s {
-                Slot::Column(j) => design.columns[*j].as_slice(),
-                Slot::Knob(_) => unreachable!(),
-            })
+            .map(|&j| design.columns[j].as_slice())
             .chain(derivatives.iter().map(Vec::as_slice))
             .collect();
-        slots.extend(knobs.iter().map(|&k| Slot::Knob(k)));
+        let slots: Vec<Slot> = free
+            .into_iter()
+            .map(Slot::Column)
+            .chain(knobs.iter().map(|&k| Slot::Knob(k)))
+            .collect();
         let q = slots.len();
         let information = DMatrix::from_fn(q, q, |a, b| {
             kept.iter()
@@ -1404,42 +1414,26 @@ impl Joint {
     /// from their re-solves at τ ± max(s.e., one raw sample) (the other knobs held), so
     /// Cov(β) + var(τ)·(dβ/dτ)(dβ/dτ)ᵀ and Cov(β, τ) = var(τ)·dβ/dτ. `None` without a
     /// delay or with a standard error that is not finite.
-    #[allow(clippy::too_many_arguments)]
-    fn with_delay(
-        &self,
-        data: &Prepared,
-        start: usize,
-        effects: &BTreeSet<Effect>,
-        nl: &Nonlinear,
-        scale: &Scales,
-        solve: &Solve,
-        delay_se: f64,
-    ) -> Option<Joint> {
-        if !effects.contains(&Effect::TimeDelay) || !delay_se.is_finite() {
+    fn with_delay(&self, problem: &Problem, nl: &Nonlinear, delay_se: f64) -> Option<Joint> {
+        if !problem.effects.contains(&Effect::TimeDelay) || !delay_se.is_finite() {
             return None;
         }
-        let (lo, hi, _) = Knob::Delay.range(scale);
+        let (lo, hi, _) = Knob::Delay.range(&problem.scale);
         let tau = nl.delay_s;
-        let raw_dt = data.dt / data.block.max(1) as f64;
-        let step = delay_se.max(raw_dt).min(tau - lo).min(hi - tau);
+        let step = delay_se.max(problem.raw_dt()).min(tau - lo).min(hi - tau);
         if step.is_nan() || step <= 0.0 {
             return None;
         }
-        let beta = |x: f64| {
-            let mut t = *nl;
-            t.delay_s = x;
-            evaluate(data, start, effects, &t, scale, 2, None).map(|r| r.2.beta)
-        };
+        let beta = |x: f64| problem.evaluate_moved(nl, Knob::Delay, x).map(|r| r.2.beta);
         let (plus, minus) = rayon::join(|| beta(tau + step), || beta(tau - step));
         let (plus, minus) = (plus?, minus?);
+        // (The same effects, so the same columns as the slots'.)
         let slope: Vec<f64> = self
             .slots
             .iter()
             .map(|slot| match slot {
-                Slot::Column(j) if *j < plus.len() && *j < solve.beta.len() => {
-                    (plus[*j] - minus[*j]) / (2.0 * step)
-                }
-                _ => 0.0,
+                Slot::Column(j) => (plus[*j] - minus[*j]) / (2.0 * step),
+                Slot::Knob(_) => 0.0,
             })
             .collect();
         let variance = delay_se * delay_se;
@@ -1488,30 +1482,12 @@ impl Joint {
 /// the RSS at the optimum, var ≈ 2σ²/RSS'' (the linear coefficients re-solved at each
 /// point; σ² per effective sample; infinite where it does not curve up), where the
 /// knob is not in the [`Joint`] covariance or there is none.
-fn nonlinear_se(
-    data: &Prepared,
-    start: usize,
-    effects: &BTreeSet<Effect>,
-    nl: &Nonlinear,
-    k: Knob,
-    sigma2: f64,
-    scale: &Scales,
-) -> f64 {
-    let (lo, hi, _) = k.range(scale);
+fn nonlinear_se(problem: &Problem, nl: &Nonlinear, k: Knob, sigma2: f64) -> f64 {
+    let (lo, hi, _) = k.range(&problem.scale);
     let x0 = nl.get(k);
-    let rss = |x: f64| {
-        let mut t = *nl;
-        t.set(k, x);
-        evaluate(data, start, effects, &t, scale, 2, None).map_or(f64::NAN, |r| r.0)
-    };
+    let rss = |x: f64| problem.evaluate_moved(nl, k, x).map_or(f64::NAN, |r| r.0);
     if k == Knob::Delay {
-        return delay_se(
-            &rss,
-            x0,
-            (lo, hi),
-            data.dt / data.block.max(1) as f64,
-            sigma2,
-        );
+        return delay_se(&rss, x0, (lo, hi), problem.raw_dt(), sigma2);
     }
     let h = 1e-3 * (hi - lo).abs().max(x0.abs() * 1e-3);
     let curvature = (rss(x0 + h) - 2.0 * rss(x0) + rss(x0 - h)) / (h * h);
