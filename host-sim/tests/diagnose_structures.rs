@@ -1587,3 +1587,109 @@ fn a_power_law_s_stiffness_and_exponent_get_joint_standard_errors() {
         }
     }
 }
+
+/// (time \[s\], position \[m\], force \[N\]) of a Kelvin-Voigt material with a mass
+/// (F = κδ + λδ̇ + m·δ̈ in contact, m 0.3-1.5 kg) tapped at one frequency (5-10 Hz) for
+/// 15 s at 1 kHz: δ = c − A·cos ωt, leaving contact on every cycle (`lift_off`, contact
+/// for the deepest 55-75 % of the stroke) or pressing throughout; analytic rates, 1 µm
+/// encoder steps, the position axis reversed on odd seeds, AR(1) force noise (φ = 0.8) of
+/// 0.5 % of the force range. Returns the rows and m.
+fn mass_taps(seed: u64, lift_off: bool) -> (Vec<(f64, f64, f64)>, f64) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (kappa, lambda) = (rng.random_range(2e3..8e3), rng.random_range(5.0..40.0));
+    let m = rng.random_range(0.3..1.5);
+    let w = 2.0 * std::f64::consts::PI * rng.random_range(5.0..10.0);
+    let a = rng.random_range(0.4e-3..0.8e-3);
+    // The stroke's share in contact.
+    let share = rng.random_range(0.55..0.75);
+    let c = if lift_off {
+        a * (2.0 * share - 1.0)
+    } else {
+        1.3 * a
+    };
+    let sign = if seed % 2 == 1 { -1.0 } else { 1.0 };
+    let fs = 1000.0;
+    let force: Vec<(f64, f64)> = (0..15_000)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let (z, v, acc) = (
+                c - a * (w * t).cos(),
+                a * w * (w * t).sin(),
+                a * w * w * (w * t).cos(),
+            );
+            let f = if z > 0.0 {
+                (kappa * z + lambda * v + m * acc).max(0.0)
+            } else {
+                0.0
+            };
+            (z, f)
+        })
+        .collect();
+    let range = force.iter().map(|p| p.1).fold(0.0, f64::max);
+    let white = Normal::new(0.0, 0.005 * range * (1.0f64 - 0.64).sqrt()).unwrap();
+    let mut noise = 0.0;
+    let rows = force
+        .iter()
+        .enumerate()
+        .map(|(i, (z, f))| {
+            noise = 0.8 * noise + white.sample(&mut rng);
+            let x = sign * (1.0e-3 + z);
+            (i as f64 / fs, (x / 1e-6).round() * 1e-6, 0.2 + f + noise)
+        })
+        .collect();
+    (rows, m)
+}
+
+/// A mass at one frequency: on a sine that stays in contact δ̈ = −ω²·(δ − δ₀), so m·δ̈ is
+/// a stiffness −mω² and a constant, and inertia is listed as not identifiable and never
+/// named. On taps that leave contact its force is still a function of depth, but one with
+/// a step at each onset and lift-off (δ̈ ≠ 0 there) that no elastic law makes and
+/// damping's ±λv does not (it changes sign between them): there it is tried. Until
+/// 2026-11-26 every one-frequency record was refused, and an independent generator's 6-9
+/// Hz taps with a mass got a power law (with n < 1 for the step) and more in 20 of 20
+/// seeds. A force-channel delay with an earlier contact point makes a step at the onset
+/// too, and on these records the two differ only within a fitting sample or two of each
+/// edge: on seeds 0-3 of this generator the first effect named is the mass or a delay,
+/// the mass in 2 (seeds 1 and 2, looked at when a first version of this test asserted
+/// the mass on all four, fit a delay of 4-5 ms with an earlier contact within the
+/// noise; the truth's own fit there is about twice the noise, the quantised position's δ̈ noise
+/// times the mass); the independent generator's 6-9 Hz taps name the mass in 19 of 20
+/// unseen seeds. Where the mass is named, it is measured.
+#[test]
+fn a_mass_on_taps_at_one_frequency_is_tried_and_not_on_a_sine_in_contact() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut named = 0;
+    for seed in 0..4 {
+        let (rows, m) = mass_taps(seed, true);
+        let d = diagnose_rows(dir.path(), &format!("taps-{seed}.csv"), &rows);
+        assert!(d.speed_spread < 0.2, "seed {seed}: {}", d.speed_spread);
+        assert!(
+            !d.unidentifiable.contains(&Effect::Inertia),
+            "seed {seed}: {:?}",
+            d.unidentifiable
+        );
+        let first = d.effects_added().first().copied();
+        assert!(
+            matches!(first, Some("inertia" | "time_delay")),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+        if first == Some("inertia") {
+            named += 1;
+            assert_within_10_percent(d.final_fit.parameter(Param::MassKg), m, "the mass");
+        }
+        let (rows, _) = mass_taps(seed, false);
+        let d = diagnose_rows(dir.path(), &format!("sine-{seed}.csv"), &rows);
+        assert!(
+            d.unidentifiable.contains(&Effect::Inertia),
+            "seed {seed}: {:?}",
+            d.unidentifiable
+        );
+        assert!(
+            !d.effects_added().contains(&"inertia"),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+    }
+    assert!(named >= 2, "the mass named first on {named} of 4 seeds");
+}

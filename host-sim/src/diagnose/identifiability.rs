@@ -26,7 +26,9 @@ pub fn rate_spread_at_depth(data: &Prepared, start: usize) -> f64 {
 /// damping and a mass all vanish there (counted, the hold at the deepest point made a
 /// ramp-and-hold look like two speeds, and clean ones were given Coulomb friction or a
 /// mass for the timing of the damping's step). Below [`RATE_SPREAD_MIN`], Coulomb
-/// friction and inertia are not identifiable.
+/// friction and inertia are not identifiable where the speed does not change along a
+/// stroke either ([`speed_change_with_depth`]), nor inertia where the record never leaves
+/// contact.
 pub fn speed_spread_at_depth(data: &Prepared, start: usize) -> f64 {
     spread_at_depth_where(data, start, f64::abs, |i| data.phase[i] != Phase::Hold)
 }
@@ -44,6 +46,39 @@ fn spread_at_depth_where(
     of: impl Fn(f64) -> f64,
     keep: impl Fn(usize) -> bool,
 ) -> f64 {
+    depth_bins(data, start, of, keep).map_or(0.0, |b| b.within)
+}
+
+/// How much the speed |δ̇| changes with depth while the probe moves (holds left out),
+/// relative to its RMS: √(Σ over the 20 depth bins of `spread_at_depth` of count ×
+/// (bin mean − mean)² / count) / RMS |δ̇|. About 0 on constant-speed strokes (a
+/// load/unload triangle, a ramp-and-hold: δ̈ = 0 but at the reversals and velocity
+/// steps, where a sampled record cannot place the step within a sample), about 0.4 on a
+/// tap at one frequency (δ̈ = −ω²·(δ − δ₀), the speed falling from the onset's to 0 at the
+/// deepest point). On a record passed at one speed each way (see
+/// [`speed_spread_at_depth`]) that also leaves contact, a mass's force m·δ̈ is a function
+/// of depth, but one that is not 0 at the contact edges where the acceleration is not:
+/// a step at each onset and lift-off that no elastic law and no damping makes (damping's
+/// ±λv changes sign between them). Below [`RATE_SPREAD_MIN`] there is no such step and
+/// inertia is not identifiable.
+pub fn speed_change_with_depth(data: &Prepared, start: usize) -> f64 {
+    depth_bins(data, start, f64::abs, |i| data.phase[i] != Phase::Hold).map_or(0.0, |b| b.between)
+}
+
+/// The spread of `of(δ̇)` within and between depth bins, each relative to its RMS.
+struct DepthBins {
+    within: f64,
+    between: f64,
+}
+
+/// `of(δ̇)` over the in-contact samples `keep` accepts, sorted by depth into 20 bins of
+/// equal count; `None` under 40 samples or with an RMS of 0.
+fn depth_bins(
+    data: &Prepared,
+    start: usize,
+    of: impl Fn(f64) -> f64,
+    keep: impl Fn(usize) -> bool,
+) -> Option<DepthBins> {
     let mut samples: Vec<(f64, f64)> = (start..data.len())
         // (Not at a kink, where the rate is between the two sides', nor another sample
         // the scores leave out: `Prepared::left_out`.)
@@ -51,16 +86,18 @@ fn spread_at_depth_where(
         .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
         .collect();
     if samples.len() < 40 {
-        return 0.0;
+        return None;
     }
     samples.sort_by(|a, b| a.0.total_cmp(&b.0));
     let rms = (samples.iter().map(|s| s.1 * s.1).sum::<f64>() / samples.len() as f64).sqrt();
     if rms <= 0.0 {
-        return 0.0;
+        return None;
     }
+    let mean = samples.iter().map(|s| s.1).sum::<f64>() / samples.len() as f64;
     let bins = 20;
     let per = samples.len() / bins;
     let mut within = 0.0;
+    let mut between = 0.0;
     let mut count = 0usize;
     for b in 0..bins {
         let chunk = &samples[b * per..if b + 1 == bins {
@@ -70,9 +107,13 @@ fn spread_at_depth_where(
         }];
         let m = chunk.iter().map(|s| s.1).sum::<f64>() / chunk.len() as f64;
         within += chunk.iter().map(|s| (s.1 - m) * (s.1 - m)).sum::<f64>();
+        between += chunk.len() as f64 * (m - mean) * (m - mean);
         count += chunk.len();
     }
-    (within / count as f64).sqrt() / rms
+    Some(DepthBins {
+        within: (within / count as f64).sqrt() / rms,
+        between: (between / count as f64).sqrt() / rms,
+    })
 }
 
 /// Whether the fit window holds the probe still in contact long enough to show a
@@ -102,10 +143,15 @@ pub const RATE_SPREAD_MIN: f64 = 0.2;
 /// Why the record cannot identify an effect the workflow did not try, and the motion
 /// that would: (reason, motion).
 pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'static str) {
-    if d.one_speed_each_way_only() && matches!(e, Effect::CoulombFriction | Effect::Inertia) {
+    if d.one_speed_each_way_only() && e == Effect::Inertia {
         (
-            "each depth is passed at one speed in each direction (holds aside, where friction, damping and a mass all vanish): Coulomb friction's ±F_c is the baseline damping's ±λv there, and δ̈ is a function of depth too: on constant-speed strokes it vanishes but at the reversals and velocity steps, where a sampled record cannot place the step within a sample; on an oscillation at one frequency ω it is −ω²·(δ − δ₀), so a mass is a stiffness −mω² and a constant",
-            "a second speed (damping scales with it, friction does not) or a second frequency (a mass's force is then no function of depth)",
+            "each depth is passed at one speed in each direction (holds aside, where a mass's force vanishes), so δ̈ is a function of depth: on constant-speed strokes it vanishes but at the reversals and velocity steps, where a sampled record cannot place the step within a sample; on an oscillation at one frequency ω that stays in contact it is −ω²·(δ − δ₀), so a mass is a stiffness −mω² and a constant. What tells a mass apart there, its step at each contact onset and lift-off where the probe accelerates (a tap), is not in this record",
+            "a second frequency or speed (a mass's force is then no function of depth), or taps that leave contact while the probe accelerates (a mass's step at each onset and lift-off)",
+        )
+    } else if d.one_speed_each_way_only() && e == Effect::CoulombFriction {
+        (
+            "each depth is passed at one speed in each direction (holds aside, where friction and damping both vanish), and that speed does not change along a stroke: Coulomb friction's ±F_c is the baseline damping's ±λv there",
+            "a second speed (damping scales with it, friction does not)",
         )
     } else if e == Effect::PlasticSet {
         (

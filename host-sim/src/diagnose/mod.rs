@@ -60,11 +60,11 @@ use estimator_core::ModelKind;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use self::catalogue::{knobs_of, Effect, Nonlinear, Param};
+use self::catalogue::{knobs_of, Effect, Knob, Nonlinear, Param};
 use self::data::Prepared;
 pub use self::identifiability::{
-    holds_in_contact, rate_spread_at_depth, separating_motion, speed_spread_at_depth,
-    unidentifiable_reason, RATE_SPREAD_MIN,
+    holds_in_contact, rate_spread_at_depth, separating_motion, speed_change_with_depth,
+    speed_spread_at_depth, unidentifiable_reason, RATE_SPREAD_MIN,
 };
 pub use self::localisation::{localise, Localisation, PHASE_ORDER};
 pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
@@ -266,11 +266,14 @@ pub struct Diagnosis {
     pub rate_spread: f64,
     /// [`speed_spread_at_depth`] of the record.
     pub speed_spread: f64,
+    /// [`speed_change_with_depth`] of the record.
+    pub speed_change: f64,
     /// Effects not tried because the record cannot identify them (the rate effects and
     /// a plastic set when the spread is below [`RATE_SPREAD_MIN`], relaxation then too
     /// unless the probe holds still in contact ([`holds_in_contact`]);
-    /// Coulomb friction and inertia when the speed's spread is; a delay when it is and
-    /// the fit window never leaves contact; a
+    /// Coulomb friction and inertia when the speed's spread is and the speed does not
+    /// change with depth ([`speed_change_with_depth`]), inertia also when the speed's
+    /// spread is and the fit window never leaves contact; a delay then too; a
     /// force offset that trades against the contact point; a later contact point with one
     /// contact).
     pub unidentifiable: Vec<Effect>,
@@ -343,6 +346,10 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // a function of depth (0 but at the reversals of a stroke; −ω²·(δ − δ₀) on a sine).
     let speed_spread = speed_spread_at_depth(data, data.fit_start());
     let one_speed_each_way = speed_spread < RATE_SPREAD_MIN;
+    // Passed so, a mass's force m·δ̈ is a function of depth too; it differs from an
+    // elastic law and a damping only by its step at the contact edges, where the probe
+    // accelerates on a tap (δ̈ = −ω²·(δ − δ₀)) and not on constant-speed strokes.
+    let speed_change = speed_change_with_depth(data, data.fit_start());
     let holds = holds_in_contact(data, data.fit_start());
     let hold_tare = one_speed && data.offset_unidentified;
     // In contact throughout the fit window at one speed each way (a sine at one
@@ -374,7 +381,20 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             Effect::ForceDrift => {
                 hold_tare || free_runs(data, data.fit_start(), MIN_FREE_STRETCH).len() < 2
             }
-            Effect::CoulombFriction | Effect::Inertia => one_speed || one_speed_each_way,
+            // Coulomb friction's ±F_c is the damping's ±λv only where the speed along
+            // each stroke is constant.
+            Effect::CoulombFriction => {
+                one_speed || (one_speed_each_way && speed_change < RATE_SPREAD_MIN)
+            }
+            // At one speed each way a mass shows only by its step at the contact
+            // edges: not on constant-speed strokes (δ̈ = 0 there), nor where the record
+            // never leaves contact (on a sine, −mω²·(δ − δ₀) is a stiffness and a
+            // constant).
+            Effect::Inertia => {
+                one_speed
+                    || (one_speed_each_way
+                        && (in_contact_throughout || speed_change < RATE_SPREAD_MIN))
+            }
             Effect::TimeDelay => one_speed || one_frequency_in_contact,
             _ => one_speed && e.is_rate_effect(),
         })
@@ -398,6 +418,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         noise_fraction,
         rate_spread,
         speed_spread,
+        speed_change,
     };
     let run = |damping_held: bool| workflow(data, &setting, damping_held);
     if !(one_speed && onset_from_free_space) {
@@ -485,6 +506,7 @@ struct Setting<'a> {
     noise_fraction: Option<f64>,
     rate_spread: f64,
     speed_spread: f64,
+    speed_change: f64,
 }
 
 /// The workflow on `data` from the baseline: the forward steps, then the backward check.
@@ -562,7 +584,16 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 delay_as_damping: from.delay_as_damping && e != Effect::TimeDelay,
                 ..*from
             };
-            let knobs: Vec<_> = e.knob().into_iter().collect();
+            // A mass's force m·δ̈ is a step where a contact begins at an acceleration
+            // (a tap at one frequency: δ̈ = −ω²·(δ − δ₀) there), which the current
+            // model, without it, fits by an earlier contact point; so the mass is
+            // searched with the contact position, as another effect with its knob
+            // (the step moves the contact by tens of micrometres on 6-9 Hz taps, out
+            // of the local search's basin).
+            let knobs: Vec<_> = match e {
+                Effect::Inertia => vec![Knob::ContactPosition],
+                _ => e.knob().into_iter().collect(),
+            };
             let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
             let fit = if with.contains(&Effect::ExponentialStiffness)
                 && effort == Effort::QUICK
@@ -858,6 +889,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
         cv_block: data.cv_block,
         rate_spread: setting.rate_spread,
         speed_spread: setting.speed_spread,
+        speed_change: setting.speed_change,
         unidentifiable: unidentifiable.clone(),
         damping_held,
         onset_damping_delta_bic: None,

@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use rayon::prelude::*;
 use serde_json::{json, Map, Value};
 
-use super::catalogue::{Determination, Estimate, Param};
+use super::catalogue::{Determination, Effect, Estimate, Param};
 use super::data::Prepared;
 use super::solver::Fit;
 use super::{Candidate, Diagnosis, Localisation, Options, PHASE_ORDER};
@@ -181,6 +181,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "cv_interleaved_block_samples": d.cv_block,
         "rate_spread_at_depth": d.rate_spread,
         "speed_spread_at_depth": d.speed_spread,
+        "speed_change_with_depth": d.speed_change,
         "linear_damping_held": d.damping_held,
         "onset_damping_delta_bic": d.onset_damping_delta_bic,
         "not_identifiable": d.unidentifiable.iter().map(|e| {
@@ -537,7 +538,26 @@ pub fn markdown(
     let mut ambiguous = ambiguous;
     for (k, e) in d.unidentifiable.iter().enumerate() {
         let (why, motion) = super::unidentifiable_reason(d, *e);
-        let spread = if e.is_rate_effect() && d.one_speed_each_way_only() {
+        let spread = if *e == Effect::CoulombFriction && d.one_speed_each_way_only() {
+            format!(
+                " (spread of |δ̇| at a depth {:.2} of its RMS, its change with depth {:.2}, both below {})",
+                d.speed_spread,
+                d.speed_change,
+                super::RATE_SPREAD_MIN
+            )
+        } else if *e == Effect::Inertia && d.one_speed_each_way_only() {
+            format!(
+                " (spread of |δ̇| at a depth {:.2} of its RMS, below {min}; its change with depth {:.2}{})",
+                d.speed_spread,
+                d.speed_change,
+                if d.speed_change < super::RATE_SPREAD_MIN {
+                    format!(", below {}", super::RATE_SPREAD_MIN)
+                } else {
+                    ", but the record never leaves contact".to_string()
+                },
+                min = super::RATE_SPREAD_MIN
+            )
+        } else if e.is_rate_effect() && d.one_speed_each_way_only() {
             format!(
                 " (spread of |δ̇| at a depth {:.2} of its RMS, below {})",
                 d.speed_spread,
