@@ -1663,6 +1663,7 @@ fn a_mass_on_taps_at_one_frequency_is_tried_and_not_on_a_sine_in_contact() {
         let (rows, m) = mass_taps(seed, true);
         let d = diagnose_rows(dir.path(), &format!("taps-{seed}.csv"), &rows);
         assert!(d.speed_spread < 0.2, "seed {seed}: {}", d.speed_spread);
+        assert!(d.speed_change >= 0.2, "seed {seed}: {}", d.speed_change);
         assert!(
             !d.unidentifiable.contains(&Effect::Inertia),
             "seed {seed}: {:?}",

@@ -50,17 +50,21 @@ fn spread_at_depth_where(
 }
 
 /// How much the speed |δ̇| changes with depth while the probe moves (holds left out),
-/// relative to its RMS: √(Σ over the 20 depth bins of `spread_at_depth` of count ×
-/// (bin mean − mean)² / count) / RMS |δ̇|. About 0 on constant-speed strokes (a
-/// load/unload triangle, a ramp-and-hold: δ̈ = 0 but at the reversals and velocity
-/// steps, where a sampled record cannot place the step within a sample), about 0.4 on a
-/// tap at one frequency (δ̈ = −ω²·(δ − δ₀), the speed falling from the onset's to 0 at the
-/// deepest point). On a record passed at one speed each way (see
-/// [`speed_spread_at_depth`]) that also leaves contact, a mass's force m·δ̈ is a function
-/// of depth, but one that is not 0 at the contact edges where the acceleration is not:
-/// a step at each onset and lift-off that no elastic law and no damping makes (damping's
-/// ±λv changes sign between them). Below [`RATE_SPREAD_MIN`] there is no such step and
-/// inertia is not identifiable.
+/// relative to its RMS: √(Σ over the 20 depth bins of `spread_at_depth` of n_bin ×
+/// (bin mean − mean)² / n) / RMS |δ̇|, n_bin a bin's samples and n all of them. About 0 on
+/// constant-speed strokes (a load/unload triangle, a ramp-and-hold: δ̈ = 0 but at the
+/// reversals and velocity steps, where a sampled record cannot place the step within a
+/// sample), 0.43 on a whole sine and 0.24-0.35 on the independent generator's taps at one
+/// frequency (δ̈ = −ω²·(δ − δ₀), the speed falling from the onset's to 0 at the deepest
+/// point). On a record passed at one speed each way (see [`speed_spread_at_depth`]) that
+/// also leaves contact, a mass's force m·δ̈ is a function of depth, but one that is not 0
+/// at the contact edges where the acceleration is not: a step at each onset and lift-off
+/// that no elastic law and no damping makes (damping's ±λv changes sign between them).
+/// Below [`SPEED_CHANGE_MIN`] the speed is taken as constant along the strokes and a mass
+/// is not tried. (A proxy: the statistic measures how the speed varies with depth, not
+/// the acceleration at the edges themselves; a record whose speed steps between depth
+/// ranges, both ways, passes it with δ̈ = 0 but at the steps, and a short acceleration
+/// right at the onset can sit below it.)
 pub fn speed_change_with_depth(data: &Prepared, start: usize) -> f64 {
     depth_bins(data, start, f64::abs, |i| data.phase[i] != Phase::Hold).map_or(0.0, |b| b.between)
 }
@@ -139,6 +143,12 @@ pub const MIN_HOLD_SHARE: f64 = 0.1;
 
 /// [`rate_spread_at_depth`] below which rate effects are not identifiable.
 pub const RATE_SPREAD_MIN: f64 = 0.2;
+
+/// [`speed_change_with_depth`] below which the speed along a record's strokes is taken as
+/// constant (Coulomb friction and a mass not tried at one speed each way); 0.24-0.35 on
+/// the independent generator's one-frequency taps, ≈ 0 on the project's triangles and
+/// ramp-and-holds.
+pub const SPEED_CHANGE_MIN: f64 = 0.2;
 
 /// Why the record cannot identify an effect the workflow did not try, and the motion
 /// that would: (reason, motion).

@@ -64,7 +64,7 @@ use self::catalogue::{knobs_of, Effect, Knob, Nonlinear, Param};
 use self::data::Prepared;
 pub use self::identifiability::{
     holds_in_contact, rate_spread_at_depth, separating_motion, speed_change_with_depth,
-    speed_spread_at_depth, unidentifiable_reason, RATE_SPREAD_MIN,
+    speed_spread_at_depth, unidentifiable_reason, RATE_SPREAD_MIN, SPEED_CHANGE_MIN,
 };
 pub use self::localisation::{localise, Localisation, PHASE_ORDER};
 pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
@@ -384,7 +384,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             // Coulomb friction's ±F_c is the damping's ±λv only where the speed along
             // each stroke is constant.
             Effect::CoulombFriction => {
-                one_speed || (one_speed_each_way && speed_change < RATE_SPREAD_MIN)
+                one_speed || (one_speed_each_way && speed_change < SPEED_CHANGE_MIN)
             }
             // At one speed each way a mass shows only by its step at the contact
             // edges: not on constant-speed strokes (δ̈ = 0 there), nor where the record
@@ -393,7 +393,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             Effect::Inertia => {
                 one_speed
                     || (one_speed_each_way
-                        && (in_contact_throughout || speed_change < RATE_SPREAD_MIN))
+                        && (in_contact_throughout || speed_change < SPEED_CHANGE_MIN))
             }
             Effect::TimeDelay => one_speed || one_frequency_in_contact,
             _ => one_speed && e.is_rate_effect(),
@@ -959,7 +959,13 @@ fn joint_pair(
                 start.set(k, b.fit.nonlinear.get(k));
             }
             start.delay_as_damping |= b.fit.nonlinear.delay_as_damping;
-            let pair = fit(data, &with, &start, &[], Effort::REFINE)?;
+            // (A mass's contact position is searched as its knob: see `fit_one`.)
+            let global: &[Knob] = if a.effect == Effect::Inertia || b.effect == Effect::Inertia {
+                &[Knob::ContactPosition]
+            } else {
+                &[]
+            };
+            let pair = fit(data, &with, &start, global, Effort::REFINE)?;
             if under_half_a_sample(data, &pair) {
                 return None;
             }

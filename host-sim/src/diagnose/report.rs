@@ -540,18 +540,19 @@ pub fn markdown(
         let (why, motion) = super::unidentifiable_reason(d, *e);
         let spread = if *e == Effect::CoulombFriction && d.one_speed_each_way_only() {
             format!(
-                " (spread of |δ̇| at a depth {:.2} of its RMS, its change with depth {:.2}, both below {})",
+                " (spread of |δ̇| at a depth {:.2} of its RMS, below {}; its change with depth {:.2}, below {})",
                 d.speed_spread,
+                super::RATE_SPREAD_MIN,
                 d.speed_change,
-                super::RATE_SPREAD_MIN
+                super::SPEED_CHANGE_MIN
             )
         } else if *e == Effect::Inertia && d.one_speed_each_way_only() {
             format!(
                 " (spread of |δ̇| at a depth {:.2} of its RMS, below {min}; its change with depth {:.2}{})",
                 d.speed_spread,
                 d.speed_change,
-                if d.speed_change < super::RATE_SPREAD_MIN {
-                    format!(", below {}", super::RATE_SPREAD_MIN)
+                if d.speed_change < super::SPEED_CHANGE_MIN {
+                    format!(", below {}", super::SPEED_CHANGE_MIN)
                 } else {
                     ", but the record never leaves contact".to_string()
                 },

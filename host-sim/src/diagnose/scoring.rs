@@ -417,11 +417,14 @@ pub(super) fn score(
     // a mode faster than the record resolves adds c·κ/ν·δ̇, a damping, which the model
     // has (a clean Kelvin-Voigt record at 100 Hz, an independent generator's, was given
     // a 6 % mode at that bound for 0.01 % of NRMSE).
+    // So is a mass held at 0 by its bound, whose fit searched the contact position
+    // (a lower stair of the contact's RSS is no mass).
     let nested = replaces.is_none()
         && (effect
             .knob()
             .is_some_and(|k| k.nested_value() == Some(fit.nonlinear.get(k)))
-            || (effect == Effect::Relaxation && fit.relaxes_at_the_fast_bound()));
+            || (effect == Effect::Relaxation && fit.relaxes_at_the_fast_bound())
+            || (effect == Effect::Inertia && fit.parameter(Param::MassKg) == Some(0.0)));
     let significant = is_physical
         && !nested
         && delta_bic < -options.min_bic_drop
