@@ -45,16 +45,26 @@ pub const MIN_MEMORY_S: f64 = 2.0;
 /// a standard deviation (σ = MAD(Δ²x)/0.6745/√6). Second differences cancel slow signal
 /// (ramps), so this works inside a ramp as well as in free space.
 pub fn noise_level(x: &[f64]) -> f64 {
-    if x.len() < 3 {
+    difference_noise(x, 3, |w| w[2] - 2.0 * w[1] + w[0], 6.0)
+}
+
+/// The robust noise level of `x` from a difference of `width` samples, `difference` of
+/// each window, whose noise variance is `sum_squares` (the sum of its coefficients'
+/// squares) times the samples': MAD/0.6745/√`sum_squares`; 0 with fewer than `width`
+/// samples.
+pub fn difference_noise(
+    x: &[f64],
+    width: usize,
+    difference: impl Fn(&[f64]) -> f64,
+    sum_squares: f64,
+) -> f64 {
+    if x.len() < width {
         return 0.0;
     }
-    let mut d2: Vec<f64> = x
-        .windows(3)
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .collect();
-    let mid = d2.len() / 2;
-    let median = *d2.select_nth_unstable_by(mid, f64::total_cmp).1;
-    median / 0.6745 / 6f64.sqrt()
+    let mut d: Vec<f64> = x.windows(width).map(|w| difference(w).abs()).collect();
+    let mid = d.len() / 2;
+    let median = *d.select_nth_unstable_by(mid, f64::total_cmp).1;
+    median / 0.6745 / sum_squares.sqrt()
 }
 
 fn range(x: &[f64]) -> f64 {

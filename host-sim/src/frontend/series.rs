@@ -380,16 +380,7 @@ pub fn rate_and_kinks(time_s: &[f64], position: &[f64]) -> (Vec<f64>, Vec<bool>)
 /// the speed ≈ 14 % low): faster motion needs a faster block or a noise from the free
 /// space.
 fn curvature_free_noise(x: &[f64]) -> f64 {
-    if x.len() < 4 {
-        return 0.0;
-    }
-    let mut d3: Vec<f64> = x
-        .windows(4)
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
-        .collect();
-    let mid = d3.len() / 2;
-    let median = *d3.select_nth_unstable_by(mid, f64::total_cmp).1;
-    median / 0.6745 / 20f64.sqrt()
+    crate::setup::difference_noise(x, 4, |w| w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0], 20.0)
 }
 
 /// (x\[i+k\] − x\[i−k\]) / (t\[i+k\] − t\[i−k\]) with k the number of samples in
