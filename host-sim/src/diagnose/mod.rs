@@ -584,16 +584,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 delay_as_damping: from.delay_as_damping && e != Effect::TimeDelay,
                 ..*from
             };
-            // A mass's force m·δ̈ is a step where a contact begins at an acceleration
-            // (a tap at one frequency: δ̈ = −ω²·(δ − δ₀) there), which the current
-            // model, without it, fits by an earlier contact point; so the mass is
-            // searched with the contact position, as another effect with its knob
-            // (the step moves the contact by tens of micrometres on 6-9 Hz taps, out
-            // of the local search's basin).
-            let knobs: Vec<_> = match e {
-                Effect::Inertia => vec![Knob::ContactPosition],
-                _ => e.knob().into_iter().collect(),
-            };
+            let knobs = e.searched_knobs();
             let fit_from = |nl: &Nonlinear| fit(data, &with, nl, &knobs, effort);
             let fit = if with.contains(&Effect::ExponentialStiffness)
                 && effort == Effort::QUICK
@@ -959,8 +950,10 @@ fn joint_pair(
                 start.set(k, b.fit.nonlinear.get(k));
             }
             start.delay_as_damping |= b.fit.nonlinear.delay_as_damping;
-            // (A mass's contact position is searched as its knob: see `fit_one`.)
-            let global: &[Knob] = if a.effect == Effect::Inertia || b.effect == Effect::Inertia {
+            // (Started from both effects' own knobs; the contact position searched where
+            // either effect's fit searched it: `Effect::searched_knobs`.)
+            let searches_contact = |e: Effect| e.searched_knobs().contains(&Knob::ContactPosition);
+            let global: &[Knob] = if searches_contact(a.effect) || searches_contact(b.effect) {
                 &[Knob::ContactPosition]
             } else {
                 &[]
