@@ -350,7 +350,7 @@ pub fn estimate_file(
         model,
         &depth,
         &force,
-        &native.force_n,
+        front.sample_noise_n,
         native_rate,
         overrides,
     );

@@ -103,18 +103,54 @@ impl PhaseClassifier {
 pub const LOADING_SPEED_FRACTION: f64 = 0.05;
 
 /// v* for a record: [`LOADING_SPEED_FRACTION`] of its 99.9th-percentile speed (robust to a
-/// few spikes), from positions \[m\] sampled every `sample_time_s`.
+/// few spikes), from positions \[m\] sampled every `sample_time_s`
+/// (= `SpanTravel::of(position_m).loading_speed(sample_time_s)`).
 pub fn speed_threshold(position_m: &[f64], sample_time_s: f64) -> f64 {
-    if position_m.len() < 3 {
-        return 0.0;
+    SpanTravel::of(position_m).loading_speed(sample_time_s)
+}
+
+/// The record's 99.9th-percentile travel over a 5-sample span (speeds over such spans stay
+/// above quantisation noise): [`speed_threshold`] without the sample time, so that one
+/// selection serves every sample time it is asked at. Exact: dividing by the span's
+/// duration is monotone, so the percentile of the speeds is the percentile travel divided
+/// by it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpanTravel {
+    /// The 99.9th percentile of |x\[i + span\] − x\[i\]| \[m\].
+    travel_m: f64,
+    /// Samples per span (5, fewer on a shorter record; 0: under 3 samples, no speed).
+    span: usize,
+}
+
+impl SpanTravel {
+    /// Of positions `position_m` \[m\].
+    pub fn of(position_m: &[f64]) -> Self {
+        if position_m.len() < 3 {
+            return SpanTravel {
+                travel_m: 0.0,
+                span: 0,
+            };
+        }
+        let span = 5.min(position_m.len() - 1);
+        let mut travel: Vec<f64> = position_m
+            .windows(span + 1)
+            .map(|w| (w[span] - w[0]).abs())
+            .collect();
+        let at = ((travel.len() - 1) as f64 * 0.999) as usize;
+        SpanTravel {
+            travel_m: *travel.select_nth_unstable_by(at, f64::total_cmp).1,
+            span,
+        }
     }
-    // Speeds over 5-sample spans, to stay above quantisation noise.
-    let span = 5.min(position_m.len() - 1);
-    let mut speeds: Vec<f64> = position_m
-        .windows(span + 1)
-        .map(|w| ((w[span] - w[0]) / (span as f64 * sample_time_s)).abs())
-        .collect();
-    loading_speed_of(&mut speeds)
+
+    /// v* \[m/s\] at samples `sample_time_s` \[s\] apart ([`speed_threshold`]); 0 without
+    /// a span.
+    pub fn loading_speed(&self, sample_time_s: f64) -> f64 {
+        if self.span == 0 {
+            return 0.0;
+        }
+        LOADING_SPEED_FRACTION * (self.travel_m / (self.span as f64 * sample_time_s))
+    }
 }
 
 /// [`LOADING_SPEED_FRACTION`] of the 99.9th percentile of `speeds` \[m/s\] (by selection:
@@ -186,6 +222,34 @@ mod tests {
             assert_eq!(c.classify(true, 0.7), Phase::Loading);
         }
         assert_eq!(c.classify(true, 0.3), Phase::Hold);
+    }
+
+    /// One selection of the travel serves every sample time, to the bit: the speeds'
+    /// percentile is the travel's divided by the span's duration.
+    #[test]
+    fn the_span_travel_gives_the_speeds_own_percentile_exactly() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let x: Vec<f64> = (0..20_000)
+            .map(|i| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                1e-3 * (i as f64 * 0.01).sin() + 1e-7 * (state % 1000) as f64
+            })
+            .collect();
+        let travel = SpanTravel::of(&x);
+        for dt in [1e-3, f64::from(1e-3f32), 1.0 / 124.22, 0.1] {
+            let mut speeds: Vec<f64> = x
+                .windows(6)
+                .map(|w| ((w[5] - w[0]) / (5.0 * dt)).abs())
+                .collect();
+            assert_eq!(
+                travel.loading_speed(dt),
+                loading_speed_of(&mut speeds),
+                "dt {dt}"
+            );
+        }
+        assert_eq!(SpanTravel::of(&x[..2]).loading_speed(1e-3), 0.0);
     }
 
     #[test]

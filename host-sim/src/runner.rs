@@ -31,6 +31,9 @@ pub struct RunOptions {
     /// per-sample estimates file and plots; ≈ 28 B a sample). Without it the trace's
     /// parameters are empty and only the phases' final parameters are kept.
     pub parameter_trace: bool,
+    /// The position's span travel, when the caller has it ([`phases::SpanTravel`]: the
+    /// phases' speed threshold from it is the one [`run`] computes); `None`: computed.
+    pub span_travel: Option<phases::SpanTravel>,
 }
 
 impl RunOptions {
@@ -43,6 +46,7 @@ impl RunOptions {
             settings: EstimatorSettings::default(),
             estimate_during: None,
             parameter_trace: true,
+            span_travel: None,
         }
     }
 }
@@ -193,7 +197,10 @@ pub fn run(
         phase: Vec::with_capacity(n),
     };
     let dt = f64::from(options.pipeline.sample_time_s);
-    let phase_threshold = phases::speed_threshold(position_m, dt);
+    let phase_threshold = options
+        .span_travel
+        .unwrap_or_else(|| phases::SpanTravel::of(position_m))
+        .loading_speed(dt);
     let mut classifier = PhaseClassifier::new(phase_threshold);
     let mut phase = Phase::FreeSpace;
     // Samples per distinct status value, named after the loop (not a name String per

@@ -81,9 +81,9 @@ fn range(x: &[f64]) -> f64 {
 }
 
 /// Run options for `model` on a record sampled at 1 kHz (`position_m`, `force_n`), with
-/// the reasons for each choice. `native_force_n` is the force at the file's own rate
-/// `native_rate_hz` (before resampling), whose sample-to-sample noise is not smoothed by
-/// interpolation.
+/// the reasons for each choice. `native_force_noise_n` \[N\] is the noise
+/// ([`noise_level`]) of the force at the file's own rate `native_rate_hz` (before
+/// resampling), whose sample-to-sample noise is not smoothed by interpolation.
 ///
 /// The pipeline tares and detects contacts online, as the firmware does; a record set up
 /// by the whole-record front end then switches to its known surface and offset
@@ -92,7 +92,7 @@ pub fn options_for_record(
     model: ModelKind,
     position_m: &[f64],
     force_n: &[f64],
-    native_force_n: &[f64],
+    native_force_noise_n: f64,
     native_rate_hz: f64,
     overrides: &Overrides,
 ) -> (RunOptions, Vec<String>) {
@@ -100,7 +100,7 @@ pub fn options_for_record(
     let mut options = RunOptions::for_model(model);
     let force_range = range(force_n);
     let depth_range = range(position_m);
-    let sigma = noise_level(native_force_n);
+    let sigma = native_force_noise_n;
 
     // Internal units: powers of ten near the record's force and depth ranges.
     let scaling = Scaling::for_magnitudes((0.5 * depth_range) as f32, (0.5 * force_range) as f32);
@@ -144,7 +144,9 @@ pub fn options_for_record(
     // Loading speed v*: 5 % of the 99.9th-percentile speed. Drift of the force offset is
     // only learned while the probe is slower than v*/2: a slow compression of a soft
     // sample is not drift.
-    let v_star = crate::phases::speed_threshold(position_m, 1.0e-3);
+    let travel = crate::phases::SpanTravel::of(position_m);
+    let v_star = travel.loading_speed(1.0e-3);
+    options.span_travel = Some(travel);
     // A slow test may take seconds to load from half to twice the onset threshold.
     options.pipeline.refinement.timeout_samples = (position_m.len() / 10).max(500) as u32;
     options.pipeline.tare.tracking_max_speed_m_per_s = (0.5 * v_star) as f32;

@@ -122,6 +122,11 @@ pub struct FrontEnd {
     pub noise_n: f64,
     /// Lag-1 autocorrelation of that noise (0 when estimated from second differences).
     pub noise_rho1: f64,
+    /// Noise of the force samples as given (before any averaging) \[N\], from second
+    /// differences ([`crate::setup::noise_level`] of the analysed force; the run options'
+    /// note reports it, not the JSON).
+    #[serde(skip)]
+    pub sample_noise_n: f64,
     /// What was found and from which samples, in words.
     pub notes: Vec<String>,
     /// What the record could not determine, in words.
@@ -314,7 +319,8 @@ pub fn analyse_oriented(
         (Some((s, _)), _) | (None, Some(s)) => vec![s.signum()],
         (None, None) => vec![1.0, -1.0],
     };
-    let noise_n = crate::setup::noise_level(force_n) / (series.averaged as f64).sqrt();
+    let sample_noise_n = crate::setup::noise_level(force_n);
+    let noise_n = sample_noise_n / (series.averaged as f64).sqrt();
     // Both orientations at once: each fit is independent and the bulk of the front end.
     let mut fits: Vec<(f64, LawFit)> = signs
         .par_iter()
@@ -421,6 +427,7 @@ pub fn analyse_oriented(
         series,
         noise_n,
         noise_rho1,
+        sample_noise_n,
         notes: Vec::new(),
         warnings: Vec::new(),
     };
