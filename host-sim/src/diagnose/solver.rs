@@ -1308,16 +1308,82 @@ enum Slot {
 /// bound of its search range in J (held there), nor a contact position at the bound of a
 /// narrower range that the fit reports as determined: what trades with them is
 /// conditional on them. A coefficient held at 0 by the active set has standard error 0.
+///
+/// Where JᵀJ is singular (the record determines only combinations of some slots: a
+/// contact point and a tare on a record that never leaves contact under a linear law; a
+/// knob whose derivative vanishes, a friction's slip rate past its saturation), the
+/// covariance is the pseudo-inverse's and the null space is kept: a parameter whose
+/// gradient has a component along it is not determined (standard error infinite), one
+/// orthogonal to it (a combination the record fixes, the stiffness beside that pair) has
+/// its standard error from the pseudo-inverse.
 struct Joint {
     slots: Vec<Slot>,
     covariance: DMatrix<f64>,
+    /// The information's null space ([`NullSpace`]; empty where it is regular).
+    null: NullSpace,
 }
+
+/// The null directions of an information matrix I = S·Ĩ·S (S the diagonal of the
+/// columns' norms, Ĩ unit-diagonal): unit vectors v with Ĩ·v = 0. The variance of gᵀθ is
+/// σ²·hᵀĨ⁺h with h = S⁻¹g, finite only where h ⊥ every v: a gradient is estimable where
+/// |h·v| ≤ [`NULL_COMPONENT`]·|h| for each.
+#[derive(Debug, Clone, Default)]
+struct NullSpace {
+    /// Unit null vectors of Ĩ over the slots (0 on a slot outside I, a delay's).
+    vectors: Vec<DVector<f64>>,
+    /// S's diagonal per slot (1 for a zero column; 0 for a slot outside I, ignored).
+    scales: Vec<f64>,
+}
+
+impl NullSpace {
+    /// Whether the gradient over slots `terms` (index, gᵢ) has a component along it.
+    fn touches(&self, terms: &[(usize, f64)]) -> bool {
+        let h = |&(a, g): &(usize, f64)| {
+            if self.scales[a] > 0.0 {
+                g / self.scales[a]
+            } else {
+                0.0
+            }
+        };
+        let norm = terms.iter().map(|t| h(t) * h(t)).sum::<f64>().sqrt();
+        self.vectors.iter().any(|v| {
+            let along: f64 = terms.iter().map(|t| h(t) * v[t.0]).sum();
+            along.abs() > NULL_COMPONENT * norm
+        })
+    }
+
+    /// The same with one more slot outside I (appended last).
+    fn with_slot(&self) -> NullSpace {
+        let q = self.scales.len();
+        let mut scales = self.scales.clone();
+        scales.push(0.0);
+        NullSpace {
+            vectors: self
+                .vectors
+                .iter()
+                .map(|v| v.clone().insert_row(q, 0.0))
+                .collect(),
+            scales,
+        }
+    }
+}
+
+/// Eigenvalues of the unit-diagonal information at or below this fraction of its largest
+/// are its null space (a singular JᵀJ fails its Cholesky factorisation at about −1e-14 on
+/// the independent generator's sines in contact; a determined one's smallest is far
+/// above).
+const NULL_EIGENVALUE: f64 = 1e-10;
+
+/// A gradient's component along a null direction counts above this fraction of its norm
+/// (both in the unit-diagonal scaling: an estimable one is orthogonal to rounding).
+const NULL_COMPONENT: f64 = 1e-6;
 
 impl Joint {
     /// The joint covariance at the optimum `nl` (`design` and `solve` its final
     /// evaluation, `sigma2` the residual variance per effective sample); `None` where
-    /// JᵀJ is singular (two knobs the record cannot tell apart), an evaluation fails or a
-    /// derivative column is 0: then every standard error is the conditional one.
+    /// an evaluation fails or a derivative is not a number: then every standard error is
+    /// the conditional one. A singular JᵀJ (slots the record cannot tell apart, a
+    /// derivative column that is 0) keeps its null space ([`Joint`]).
     fn of(
         problem: &Problem,
         nl: &Nonlinear,
@@ -1396,17 +1462,12 @@ impl Joint {
                 .map(|&i| columns[a][i] * columns[b][i])
                 .sum::<f64>()
         });
-        // Scaled to a unit diagonal for the inversion (columns of very different units).
-        let scales: Vec<f64> = (0..q).map(|a| information[(a, a)].sqrt()).collect();
-        if scales.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return None;
-        }
-        let scaled = DMatrix::from_fn(q, q, |a, b| information[(a, b)] / (scales[a] * scales[b]));
-        let inverse = scaled.cholesky()?.inverse();
-        let covariance = DMatrix::from_fn(q, q, |a, b| {
-            sigma2 * inverse[(a, b)] / (scales[a] * scales[b])
-        });
-        Some(Joint { slots, covariance })
+        let (covariance, null) = pseudo_covariance(&information, sigma2)?;
+        Some(Joint {
+            slots,
+            covariance,
+            null,
+        })
     }
 
     /// The joint covariance with a delay τ's variance propagated: its standard error
@@ -1446,23 +1507,34 @@ impl Joint {
         });
         let mut slots = self.slots.clone();
         slots.push(Slot::Knob(Knob::Delay));
-        Some(Joint { slots, covariance })
+        Some(Joint {
+            slots,
+            covariance,
+            null: self.null.with_slot(),
+        })
     }
 
     /// Standard error of Σ gᵢ·θᵢ (a parameter's linearisation, `gradient` over slots): a
     /// slot not in the joint (a held coefficient, a delay, a knob at its bound) adds
-    /// nothing.
+    /// nothing; infinite along a direction the record does not determine; NaN where the
+    /// covariance is not a number.
     fn standard_error(&self, gradient: &[(Slot, f64)]) -> f64 {
         let index = |slot: Slot| self.slots.iter().position(|s| *s == slot);
         let terms: Vec<(usize, f64)> = gradient
             .iter()
             .filter_map(|&(slot, g)| index(slot).map(|i| (i, g)))
             .collect();
+        if self.null.touches(&terms) {
+            return f64::INFINITY;
+        }
         let mut variance = 0.0;
         for &(a, ga) in &terms {
             for &(b, gb) in &terms {
                 variance += ga * gb * self.covariance[(a, b)];
             }
+        }
+        if variance.is_nan() {
+            return f64::NAN;
         }
         variance.max(0.0).sqrt()
     }
@@ -1475,6 +1547,72 @@ impl Joint {
             otherwise()
         }
     }
+}
+
+/// σ²·I⁻¹ of an information matrix `information` (q × q, JᵀJ over the counted samples)
+/// and its null directions in gradient space ([`Joint`]): the eigenvalues of the
+/// unit-diagonal scaling at or below [`NULL_EIGENVALUE`] of the largest are its null space;
+/// without one the inverse is Cholesky's, with one the pseudo-inverse over the others. A
+/// zero column is a null direction of its own. `None` where a diagonal entry is not
+/// finite, or Cholesky fails on a matrix without a null space.
+fn pseudo_covariance(information: &DMatrix<f64>, sigma2: f64) -> Option<(DMatrix<f64>, NullSpace)> {
+    // Scaled to a unit diagonal for the inversion (columns of very different units).
+    // A slot whose column is 0 (a knob that does not move the force) is a null
+    // direction of its own; the others are inverted together.
+    let q = information.nrows();
+    let norms: Vec<f64> = (0..q).map(|a| information[(a, a)].sqrt()).collect();
+    if norms.iter().any(|s| s.is_nan() || s.is_infinite()) {
+        return None;
+    }
+    let live: Vec<usize> = (0..q).filter(|&a| norms[a] > 0.0).collect();
+    let mut null = NullSpace {
+        vectors: (0..q)
+            .filter(|&a| norms[a] <= 0.0)
+            .map(|a| DVector::from_fn(q, |b, _| if a == b { 1.0 } else { 0.0 }))
+            .collect(),
+        scales: norms
+            .iter()
+            .map(|&s| if s > 0.0 { s } else { 1.0 })
+            .collect(),
+    };
+    let m = live.len();
+    let scaled = DMatrix::from_fn(m, m, |a, b| {
+        information[(live[a], live[b])] / (norms[live[a]] * norms[live[b]])
+    });
+    // The null space first (a numerically singular matrix can pass Cholesky with a
+    // pivot of rounding size, and its inverse is then that rounding's).
+    let eigen = scaled.clone().symmetric_eigen();
+    let largest = eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let zero: Vec<usize> = (0..m)
+        .filter(|&i| eigen.eigenvalues[i] <= NULL_EIGENVALUE * largest)
+        .collect();
+    let inverse = if zero.is_empty() {
+        scaled.cholesky()?.inverse()
+    } else {
+        for &i in &zero {
+            let v = eigen.eigenvectors.column(i);
+            let mut full = DVector::zeros(q);
+            for (a, &slot) in live.iter().enumerate() {
+                full[slot] = v[a];
+            }
+            null.vectors.push(full);
+        }
+        DMatrix::from_fn(m, m, |a, b| {
+            (0..m)
+                .filter(|i| !zero.contains(i))
+                .map(|i| {
+                    eigen.eigenvectors[(a, i)] * eigen.eigenvectors[(b, i)] / eigen.eigenvalues[i]
+                })
+                .sum()
+        })
+    };
+    let mut covariance = DMatrix::zeros(q, q);
+    for (a, &i) in live.iter().enumerate() {
+        for (b, &j) in live.iter().enumerate() {
+            covariance[(i, j)] = sigma2 * inverse[(a, b)] / (norms[i] * norms[j]);
+        }
+    }
+    Some((covariance, null))
 }
 
 /// Standard error of a nonlinear parameter with the other knobs held (a conditional
@@ -1559,6 +1697,61 @@ fn delay_se(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A record that fixes only a combination of two slots (a tare `a` and a contact
+    /// point acting as `2a`, a record in contact throughout under a linear law) beside a
+    /// determined stiffness column, and a knob whose column is 0: each of the pair and the
+    /// idle knob get an infinite standard error, the stiffness and the pair's combination
+    /// (tare + 2·contact) the standard errors of the regression without the redundant
+    /// column, as the Cholesky path gives them.
+    #[test]
+    fn a_singular_information_keeps_what_the_record_determines() {
+        let n = 200;
+        let t: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() + 0.1).collect();
+        let tare = vec![1.0; n];
+        let contact: Vec<f64> = tare.iter().map(|a| 2.0 * a).collect();
+        let idle = vec![0.0; n];
+        let information_of = |columns: &[&[f64]]| {
+            DMatrix::from_fn(columns.len(), columns.len(), |a, b| {
+                (0..n).map(|i| columns[a][i] * columns[b][i]).sum::<f64>()
+            })
+        };
+        let sigma2 = 0.04;
+        let full = information_of(&[&t, &tare, &contact, &idle]);
+        let (covariance, null) = pseudo_covariance(&full, sigma2).unwrap();
+        assert_eq!(null.vectors.len(), 2);
+        let joint = Joint {
+            slots: vec![
+                Slot::Column(0),
+                Slot::Column(1),
+                Slot::Knob(Knob::ContactPosition),
+                Slot::Knob(Knob::SlipRate),
+            ],
+            covariance,
+            null,
+        };
+        let (reduced, none) = pseudo_covariance(&information_of(&[&t, &tare]), sigma2).unwrap();
+        assert!(none.vectors.is_empty());
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+        let stiffness = joint.standard_error(&[(Slot::Column(0), 1.0)]);
+        assert!(close(stiffness, reduced[(0, 0)].sqrt()), "{stiffness}");
+        let combination = joint.standard_error(&[
+            (Slot::Column(1), 1.0),
+            (Slot::Knob(Knob::ContactPosition), 2.0),
+        ]);
+        assert!(close(combination, reduced[(1, 1)].sqrt()), "{combination}");
+        for slot in [
+            Slot::Column(1),
+            Slot::Knob(Knob::ContactPosition),
+            Slot::Knob(Knob::SlipRate),
+        ] {
+            assert_eq!(
+                joint.standard_error(&[(slot, 1.0)]),
+                f64::INFINITY,
+                "{slot:?}"
+            );
+        }
+    }
 
     /// A screen (no standard errors of its knobs, its coefficients' conditional on them)
     /// given them by `add_uncertainties`: the same values, every parameter's standard
