@@ -764,8 +764,9 @@ fn delayed_two_sines(seed: u64, lambda: f64, delay_s: f64) -> Vec<(f64, f64, f64
 /// On a record that never leaves contact a delay τ is, to first order, a change −κ·τ of
 /// the damping: it is named only where the force lags the motion more than any passive
 /// damping allows (κ·τ > λ: the baseline's damping held at 0), and then only λ − κ·τ is
-/// reported as determined, with τ's lower bound; where κ·τ < λ it is a damping to the
-/// record and is not named. (The independent generator's sines pressed in contact named
+/// reported as determined, with τ's lower bound, and only where λ − κ·τ lies below 0 by
+/// more than two standard errors (the bar of a lag named where the contact edges do not
+/// show it); where κ·τ < λ it is a damping to the record and is not named. (The independent generator's sines pressed in contact named
 /// 1 of its 20 delays before 2026-11-25, every one then refused for want of contact edges,
 /// 18 since: its other two have κ·τ < λ.) The delay line starting empty also checks the
 /// fit window of a record that begins in contact (`Prepared::fit_start`).
@@ -795,6 +796,14 @@ fn a_delay_in_contact_is_named_only_where_no_passive_damping_explains_the_lag() 
             Some(fitted),
             lambda - kappa * delay,
             &format!("seed {seed}: λ − κτ"),
+        );
+        // Named from the lag in contact, the delay met the contact-edge route's bar too:
+        // λ − κ·τ below 0 by more than two of its standard errors (τ held; kept, not
+        // reported).
+        let se = d.final_fit.damping_combination_se;
+        assert!(
+            se.is_finite() && fitted + 2.0 * se < 0.0,
+            "seed {seed}: λ − κτ = {fitted} ± {se}"
         );
         let lambda = 80.0;
         let rows = delayed_two_sines(seed, lambda, delay);

@@ -646,8 +646,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // (F(t − τ) ≈ F − τ·dF/dt), so a delay is told from damping only where
                 // the record asks for a damping below zero: the current model's
                 // damping held at its physical bound 0 and a positive τ (a negative
-                // one, a lead, is a damping the model has). Even then only λ − κ·τ is
-                // determined, not τ (`Determination::DampingCombination`). The
+                // one, a lead, is a damping the model has), by more than two standard
+                // errors of λ − κ·τ (the bar of the edge route below). Even then only
+                // λ − κ·τ is determined, not τ (`Determination::DampingCombination`). The
                 // independent generator's sines pressed in contact were left at 3-8×
                 // their noise before (18 of its 20 have κ·τ > λ; the other two are
                 // a damping to the record, and are not named). That one is judged
@@ -703,7 +704,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                             scored.unseen_at_contact_edges = true;
                         }
                     }
-                    None if !lags_beyond_passive => {
+                    None if !(lags_beyond_passive && lags_significantly) => {
                         scored.significant = false;
                         scored.a_damping_change_in_contact = true;
                     }

@@ -1201,7 +1201,18 @@ fn mark_undetermined(
     }
     let trades = delay_trades_with_damping(|e| effects.contains(&e), hold_damping);
     if (in_contact_throughout || nl.delay_as_damping) && trades {
+        // λ's standard error is kept (at the fitted τ, that of λ − κ·τ along the valley:
+        // the bar the workflow's lag test sets, `Fit::damping_combination_se`); τ's is
+        // NaN, which the report reads as "not measured at the contact edges".
+        let lambda_se = out
+            .iter()
+            .find(|e| e.param == Param::Lambda)
+            .map(|e| e.standard_error);
         mark_damping_combination(out, false);
+        if let (Some(se), Some(e)) = (lambda_se, out.iter_mut().find(|e| e.param == Param::Lambda))
+        {
+            e.standard_error = se;
+        }
     }
     // A delay its RSS profile does not resolve from 0 (`delay_se`) is determined only
     // through λ − κ·τ where the two trade: its standard errors are kept inside (τ's for
