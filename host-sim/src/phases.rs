@@ -136,9 +136,8 @@ impl SpanTravel {
             .windows(span + 1)
             .map(|w| (w[span] - w[0]).abs())
             .collect();
-        let at = ((travel.len() - 1) as f64 * 0.999) as usize;
         SpanTravel {
-            travel_m: *travel.select_nth_unstable_by(at, f64::total_cmp).1,
+            travel_m: percentile_999(&mut travel),
             span,
         }
     }
@@ -156,11 +155,18 @@ impl SpanTravel {
 /// [`LOADING_SPEED_FRACTION`] of the 99.9th percentile of `speeds` \[m/s\] (by selection:
 /// `speeds` is reordered); 0 for none.
 pub fn loading_speed_of(speeds: &mut [f64]) -> f64 {
-    if speeds.is_empty() {
+    LOADING_SPEED_FRACTION * percentile_999(speeds)
+}
+
+/// The 99.9th percentile of `values` (the element at ⌊0.999·(n − 1)⌋ in order), by
+/// selection: `values` is reordered; 0 for none. A record's "fast" motion everywhere it
+/// is asked (robust to a few spikes, and a ramp-and-hold's brief ramp still counts).
+pub fn percentile_999(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
         return 0.0;
     }
-    let at = ((speeds.len() - 1) as f64 * 0.999) as usize;
-    LOADING_SPEED_FRACTION * *speeds.select_nth_unstable_by(at, f64::total_cmp).1
+    let at = ((values.len() - 1) as f64 * 0.999) as usize;
+    *values.select_nth_unstable_by(at, f64::total_cmp).1
 }
 
 /// Runs of equal phase: (phase, start, end exclusive).

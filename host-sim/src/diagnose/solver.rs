@@ -1204,15 +1204,7 @@ fn mark_undetermined(
         // λ's standard error is kept (at the fitted τ, that of λ − κ·τ along the valley:
         // the bar the workflow's lag test sets, `Fit::damping_combination_se`); τ's is
         // NaN, which the report reads as "not measured at the contact edges".
-        let lambda_se = out
-            .iter()
-            .find(|e| e.param == Param::Lambda)
-            .map(|e| e.standard_error);
-        mark_damping_combination(out, false);
-        if let (Some(se), Some(e)) = (lambda_se, out.iter_mut().find(|e| e.param == Param::Lambda))
-        {
-            e.standard_error = se;
-        }
+        mark_damping_combination(out, &[Param::Lambda]);
     }
     // A delay its RSS profile does not resolve from 0 (`delay_se`) is determined only
     // through λ − κ·τ where the two trade: its standard errors are kept inside (τ's for
@@ -1225,7 +1217,7 @@ fn mark_undetermined(
             && (e.value.is_nan() || e.value.abs() <= DELAY_RESOLVED_T * e.standard_error)
     });
     if unresolved && trades {
-        mark_damping_combination(out, true);
+        mark_damping_combination(out, &[Param::DelayS, Param::Lambda]);
     }
     // Any other parameter the record leaves flat to a bound on one side (an infinite
     // standard error: a delay's profile, a knob's curvature where the joint covariance
@@ -1258,16 +1250,16 @@ fn delay_trades_with_damping(has: impl Fn(Effect) -> bool, hold_damping: bool) -
 }
 
 /// Marks a model's delay and damping as determined only in their combination λ − κ·τ
-/// ([`Determination::DampingCombination`]); their standard errors become NaN unless
-/// `keep_standard_errors` (never reported either way).
-fn mark_damping_combination(out: &mut [Estimate], keep_standard_errors: bool) {
+/// ([`Determination::DampingCombination`]); their standard errors become NaN but those of
+/// `keep` (never reported either way).
+fn mark_damping_combination(out: &mut [Estimate], keep: &[Param]) {
     for (param, other) in [
         (Param::DelayS, Param::Lambda),
         (Param::Lambda, Param::DelayS),
     ] {
         if let Some(e) = out.iter_mut().find(|e| e.param == param) {
             e.determination = Determination::DampingCombination(other);
-            if !keep_standard_errors {
+            if !keep.contains(&param) {
                 e.standard_error = f64::NAN;
             }
         }
@@ -1281,7 +1273,7 @@ fn mark_damping_combination(out: &mut [Estimate], keep_standard_errors: bool) {
 pub(super) fn mark_delay_as_damping(fit: &mut Fit, hold_damping: bool) {
     fit.nonlinear.delay_as_damping = true;
     if delay_trades_with_damping(|e| fit.effects.contains(&e), hold_damping) {
-        mark_damping_combination(&mut fit.parameters, false);
+        mark_damping_combination(&mut fit.parameters, &[]);
     }
 }
 

@@ -268,12 +268,7 @@ fn half_windows(dt: f64) -> impl Iterator<Item = (usize, f64)> {
 /// The 99.9th-percentile speed of `rate` (0 when empty).
 pub(crate) fn fast_speed(rate: &[f64]) -> f64 {
     let mut speeds: Vec<f64> = rate.iter().map(|v| v.abs()).collect();
-    let q = ((speeds.len().max(1) - 1) as f64 * 0.999) as usize;
-    if speeds.is_empty() {
-        0.0
-    } else {
-        *speeds.select_nth_unstable_by(q, f64::total_cmp).1
-    }
+    crate::phases::percentile_999(&mut speeds)
 }
 
 /// Whether a symmetric difference of half-width `h` \[s\] on a position of noise
