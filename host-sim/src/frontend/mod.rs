@@ -48,13 +48,16 @@ pub struct Options {
 pub enum AxisSource {
     /// `--position-sign`.
     Given,
-    /// The contact law fits `rss_ratio` times better on this orientation than on the other.
+    /// The contact law fits `rss_ratio` times better on this orientation than on the other
+    /// (for a law other than Kelvin-Voigt's, the Kelvin-Voigt law's ratio where it is
+    /// decisive: the law itself is then fitted on this orientation only).
     Detected {
         /// RSS on the other orientation ÷ RSS on this one.
         rss_ratio: f64,
     },
     /// No contact law with a positive stiffness fits the other orientation at all (the
-    /// force falls as the position moves that way into the material).
+    /// force falls as the position moves that way into the material; the Kelvin-Voigt
+    /// law, as for `Detected`, where it decided for another law).
     OnlyOrientation,
 }
 
@@ -827,20 +830,28 @@ fn describe(
     } else {
         "decreases"
     };
-    let detected = match decided_by {
-        Some(AxisDecidedBy::OtherLaws) => "detected by the Kelvin-Voigt and Hunt-Crossley fits",
-        Some(AxisDecidedBy::KelvinVoigt) => "detected by the Kelvin-Voigt (eq. 1) fit",
-        None => "detected",
+    let (detected, law, only) = match decided_by {
+        Some(AxisDecidedBy::OtherLaws) => (
+            "detected by the Kelvin-Voigt and Hunt-Crossley fits",
+            "contact law",
+            "",
+        ),
+        Some(AxisDecidedBy::KelvinVoigt) => (
+            "detected",
+            "Kelvin-Voigt law (eq. 1)",
+            ", and this law was fitted this way only",
+        ),
+        None => ("detected", "contact law", ""),
     };
     front.notes.push(match front.axis {
         AxisSource::Given => format!("position axis: the position {direction} into the material (given)"),
         AxisSource::OnlyOrientation => format!(
-            "position axis: the position {direction} into the material ({detected}: no contact law with a \
-             positive stiffness fits the other way; --position-sign overrides)"
+            "position axis: the position {direction} into the material ({detected}: no {law} with a \
+             positive stiffness fits the other way{only}; --position-sign overrides)"
         ),
         AxisSource::Detected { rss_ratio } => format!(
-            "position axis: the position {direction} into the material ({detected}: the contact law fits \
-             {rss_ratio:.3e}× better this way; --position-sign overrides)"
+            "position axis: the position {direction} into the material ({detected}: the {law} fits \
+             {rss_ratio:.3e}× better this way{only}; --position-sign overrides)"
         ),
     });
     if let AxisSource::Detected { rss_ratio } = front.axis {
