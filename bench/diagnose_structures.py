@@ -7,10 +7,13 @@ load/unload ramps at three speeds, ramp-and-holds (3 s). Inertia logs are 6-9 Hz
 white on even seeds and AR(1) (ρ = 0.9) on odd ones, 12-bit force quantisation, 1 µm
 encoder, position axis reversed on every third seed, 0.3 N offset. NumPy only.
 
-    python3 bench/diagnose_structures.py [SEEDS_PER_CASE] [path/to/host-sim]
+    python3 bench/diagnose_structures.py [SEEDS_PER_CASE] [path/to/host-sim] [pairs]
 
 Prints one line per log (structure, hidden effect, seed, effects added, final NRMSE) and
-a count per structure and effect: hidden effect named first / nothing added.
+a count per structure and effect: hidden effect named first / nothing added. With
+`pairs`, six pairs of hidden effects instead (seeds from 9100; the pairs with a mass on
+the taps only, where a mass is identifiable), counted as both found / an effect added
+that was not hidden.
 """
 import json, math, os, subprocess, sys
 import numpy as np
@@ -43,26 +46,27 @@ def motion(kind, rng, T):
     return t, x
 
 def force(x, effect, rng, p):
+    S = set(effect.split('+'))   # one effect, or a pair joined by '+'
     v = np.gradient(x, DT); a = np.gradient(v, DT)
     kappa, lam = p['kappa'], p['lambda']
     d = np.clip(x, 0, None); c = d > 0
-    if effect == 'power_law_stiffness':
+    if 'power_law_stiffness' in S:
         e = p['k'] * d ** p['n']
     else:
         e = kappa * d
     f = e + lam * v * c
-    if effect == 'depth_dependent_damping':
+    if 'depth_dependent_damping' in S:
         f = e + p['lam2'] * d ** 1.0 * v
-    if effect == 'relaxation':
+    if 'relaxation' in S:
         alpha = 1 - math.exp(-p['nu'] * DT); y = 0.0; out = np.empty_like(e)
         for i, u in enumerate(e):
             y += alpha * (u - y); out[i] = y
         f = f - p['frac'] * out * c
-    if effect == 'inertia':
+    if 'inertia' in S:
         f = f + p['m'] * a * c
-    if effect == 'time_delay':
+    if 'time_delay' in S:
         k = int(round(p['delay'] / DT)); f = np.concatenate([np.zeros(k), f[:-k]])
-    return np.clip(f, 0, None) * c if effect != 'time_delay' else np.clip(f, 0, None)
+    return np.clip(f, 0, None) * c if 'time_delay' not in S else np.clip(f, 0, None)
 
 def make(kind, effect, seed, path):
     rng = np.random.default_rng(seed)
@@ -70,7 +74,7 @@ def make(kind, effect, seed, path):
     t, x = motion(kind, rng, T)
     p = dict(kappa=rng.uniform(3e3, 1e4), **{'lambda': rng.uniform(5, 30)}, k=rng.uniform(1e5, 1e6), n=rng.uniform(1.3, 1.8),
              lam2=rng.uniform(1e4, 5e4), nu=rng.uniform(0.5, 3), frac=rng.uniform(0.2, 0.5), m=rng.uniform(0.5, 2.0), delay=rng.uniform(0.004, 0.01))
-    if effect == 'inertia':
+    if 'inertia' in effect.split('+'):
         # fast taps: inertia needs acceleration
         f = rng.uniform(6.0, 9.0); t = np.arange(int(T/DT))*DT
         x = -0.2e-3 + 1.2e-3 * (0.5 - 0.5*np.cos(2*np.pi*f*t)) if kind != 'sine_in_contact' else 1.0e-3 + 0.4e-3*np.sin(2*np.pi*f*t)
@@ -90,17 +94,22 @@ def make(kind, effect, seed, path):
     return p
 
 rows = []
+PAIRS = len(sys.argv) > 3 and sys.argv[3] == 'pairs'
 effects = ['none', 'power_law_stiffness', 'depth_dependent_damping', 'relaxation', 'inertia', 'time_delay']
+if PAIRS:
+    effects = ['power_law_stiffness+relaxation', 'power_law_stiffness+depth_dependent_damping',
+               'relaxation+time_delay', 'power_law_stiffness+time_delay', 'inertia+relaxation',
+               'inertia+power_law_stiffness']
 kinds = ['sine_in_contact', 'taps', 'ramps', 'ramp_hold']
 import tempfile
 WORK = tempfile.mkdtemp(prefix='diagnose-structures-')
 for kind in kinds:
     for effect in effects:
-        if effect == 'inertia' and kind in ('ramps', 'ramp_hold'):
-            continue  # constant speed: no acceleration to identify a mass by
+        if 'inertia' in effect.split('+') and (kind in ('ramps', 'ramp_hold') or PAIRS and kind != 'taps'):
+            continue  # constant speed (or one sine in contact): a mass is not identifiable
         for seed in range(int(sys.argv[1]) if len(sys.argv) > 1 else 3):
             path = f'{WORK}/{kind}-{effect}-{seed}.csv'
-            p = make(kind, effect, seed + 7000, path)
+            p = make(kind, effect, seed + (9100 if PAIRS else 7000), path)
             r = subprocess.run([B, 'diagnose', path, '--json', '--out', f'{WORK}/out-{kind}-{effect}-{seed}'], capture_output=True, text=True)
             if r.returncode:
                 rows.append((kind, effect, seed, 'ERROR ' + r.stderr.strip().splitlines()[-1][:100])); continue
@@ -108,11 +117,17 @@ for kind in kinds:
             added = d.get('effects_added', [])
             rows.append((kind, effect, seed, added, round(d['nrmse_percent_final'], 3)))
             print(*rows[-1], flush=True)
-print('\nstructure          hidden                    right first (or nothing added for none)')
+print('\nstructure          hidden                    ' + ('both found / an effect not hidden added' if PAIRS else 'right first (or nothing added for none)'))
 for kind in kinds:
     for effect in effects:
         rs = [r for r in rows if r[0] == kind and r[1] == effect]
         if not rs:
+            continue
+        if PAIRS:
+            hidden = set(effect.split('+'))
+            ok = sum(1 for r in rs if isinstance(r[3], list) and hidden <= set(r[3]))
+            extra = sum(1 for r in rs if isinstance(r[3], list) and set(r[3]) - hidden)
+            print(f'{kind:18} {effect:45} both {ok}/{len(rs)}, extra {extra}')
             continue
         ok = sum(1 for r in rs if isinstance(r[3], list) and ((effect == 'none' and not r[3]) or (r[3][:1] == [effect])))
         print(f'{kind:18} {effect:25} {ok}/{len(rs)}')
