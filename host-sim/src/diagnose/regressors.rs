@@ -496,23 +496,21 @@ pub(super) fn design(
             }
             t
         } else if block > 1 {
-            let mut t = {
-                // A block inside or outside contact: the mean of the laws over its raw samples
-                // (see `block_means`), not their value at the block's mean depth.
-                let de = series(0, i) - reference;
-                if de <= 0.0 {
-                    [0.0; 6]
-                } else {
-                    let (e, dv) = block_means(de, v, series(2, i));
-                    [
-                        1.0,
-                        e,
-                        dv,
-                        if coulomb_on { (v / v0).tanh() } else { 0.0 },
-                        de,
-                        series(2, i),
-                    ]
-                }
+            // A block inside or outside contact: the mean of the laws over its raw samples
+            // (see `block_means`), not their value at the block's mean depth.
+            let de = series(0, i) - reference;
+            let mut t = if de <= 0.0 {
+                [0.0; 6]
+            } else {
+                let (e, dv) = block_means(de, v, series(2, i));
+                [
+                    1.0,
+                    e,
+                    dv,
+                    if coulomb_on { (v / v0).tanh() } else { 0.0 },
+                    de,
+                    series(2, i),
+                ]
             };
             if reverses {
                 // Coulomb friction's own column only: the other laws as the model
