@@ -763,16 +763,23 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
         else {
             // Neither of two effects may pass alone where the record shows each in
             // one place only: tried in pairs, and both named if the pair passes.
+            // Nor may a swap whose law fits only with another effect beside it (below).
             let pair = (steps.len() + 2 <= options.max_steps)
-                .then(|| joint_pair(data, &effects, &current, &candidates, setting))
+                .then(|| {
+                    joint_pair(data, &effects, &current, &candidates, setting)
+                        .or_else(|| joint_swap(data, &effects, &current, &candidates, setting))
+                })
                 .flatten();
             if let Some(JointPair { first, second }) = pair {
+                if let Some(p) = first.replaces {
+                    effects.remove(&p);
+                }
                 effects.insert(first.effect);
                 effects.insert(second.effect);
                 steps.push(Step {
                     effect: first.effect,
                     indistinguishable_from: Vec::new(),
-                    replaces: None,
+                    replaces: first.replaces,
                     jointly_with: Some(second.effect),
                     localisation_before: localise(data, &current),
                     localisation_after: localise(data, &first.fit),
@@ -917,83 +924,177 @@ fn joint_pair(
     candidates: &[Candidate],
     setting: &Setting,
 ) -> Option<JointPair> {
-    let (options, duration_s, noise_fraction) =
-        (setting.options, setting.duration_s, setting.noise_fraction);
-    let mut singles: Vec<&Candidate> = candidates
-        .iter()
-        .filter(|c| {
-            c.physical
-                && !c.nested
-                && !c.unseen_at_contact_edges
-                && !c.a_damping_change_in_contact
-                && !c.unseen_in_free_space
-                && !c.under_half_a_sample
-                && c.replaces.is_none()
-                && c.delta_bic < -options.min_bic_drop
-        })
-        .collect();
-    singles.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
-    singles.truncate(PAIRED);
+    let singles = best_added(candidates, setting.options);
     let pairs: Vec<(&Candidate, &Candidate)> = singles
         .iter()
         .enumerate()
         .flat_map(|(i, a)| singles[i + 1..].iter().map(move |b| (*a, *b)))
         .filter(|(a, b)| !a.effect.conflicts_with(b.effect))
         .collect();
-    pairs
-        .into_par_iter()
-        .filter_map(|(a, b)| {
+    let pairs = pairs
+        .into_iter()
+        .map(|(a, b)| {
             let mut with = effects.clone();
             with.insert(a.effect);
             with.insert(b.effect);
-            let mut start = a.fit.nonlinear;
-            if let Some(k) = b.effect.knob() {
-                start.set(k, b.fit.nonlinear.get(k));
-            }
-            start.delay_as_damping |= b.fit.nonlinear.delay_as_damping;
-            // (Started from both effects' own knobs; the contact position searched where
-            // either effect's fit searched it: `Effect::searched_knobs`.)
+            // (The contact position searched where either effect's fit searched it:
+            // `Effect::searched_knobs`.)
             let searches_contact = |e: Effect| e.searched_knobs().contains(&Knob::ContactPosition);
             let global: &[Knob] = if searches_contact(a.effect) || searches_contact(b.effect) {
                 &[Knob::ContactPosition]
             } else {
                 &[]
             };
-            let pair = fit(data, &with, &start, global, Effort::REFINE)?;
-            if under_half_a_sample(data, &pair) {
-                return None;
-            }
-            let gain_over = |alone: &Fit, added: Effect| {
-                score(
-                    added,
-                    None,
-                    pair.clone(),
-                    alone,
-                    options,
-                    duration_s,
-                    noise_fraction,
-                )
-                .delta_bic
-            };
-            let needs_both = gain_over(&a.fit, b.effect) < -options.min_bic_drop
-                && gain_over(&b.fit, a.effect) < -options.min_bic_drop;
-            let second = score(
-                b.effect,
-                None,
-                pair,
-                current,
-                options,
-                duration_s,
-                noise_fraction,
-            );
-            (second.significant && needs_both).then(|| JointPair {
-                first: a.clone(),
-                second,
-            })
+            (a, b, with, global)
+        })
+        .collect();
+    best_joint(data, pairs, current, setting)
+}
+
+/// Of `pairs` (first, second, the model with both, the knobs searched globally), each
+/// fitted jointly from both effects' own knobs ([`joint_start`]) and judged by
+/// [`judged_jointly`], the one named: the best by held-out error.
+fn best_joint(
+    data: &Prepared,
+    pairs: Vec<(&Candidate, &Candidate, BTreeSet<Effect>, &[Knob])>,
+    current: &Fit,
+    setting: &Setting,
+) -> Option<JointPair> {
+    pairs
+        .into_par_iter()
+        .filter_map(|(first, second, with, global)| {
+            let pair = fit(
+                data,
+                &with,
+                &joint_start(first, second),
+                global,
+                Effort::REFINE,
+            )?;
+            judged_jointly(data, pair, first, second, current, setting)
         })
         .collect::<Vec<_>>()
         .into_iter()
         .min_by(|x, y| x.second.fit.cv_rmse.total_cmp(&y.second.fit.cv_rmse))
+}
+
+/// The joint fit `pair` of `first` and `second` (each fitted alone on the current model)
+/// named as a pair: unless its delay is under half a sample, when it passes the
+/// acceptance rule against `current` and each effect lowers the BIC of the other alone
+/// by more than the threshold (neither a passenger). `second` carries the joint fit.
+fn judged_jointly(
+    data: &Prepared,
+    pair: Fit,
+    first: &Candidate,
+    second: &Candidate,
+    current: &Fit,
+    setting: &Setting,
+) -> Option<JointPair> {
+    let (options, duration_s, noise_fraction) =
+        (setting.options, setting.duration_s, setting.noise_fraction);
+    if under_half_a_sample(data, &pair) {
+        return None;
+    }
+    let gain_over = |alone: &Fit, added: Effect| {
+        score(
+            added,
+            None,
+            pair.clone(),
+            alone,
+            options,
+            duration_s,
+            noise_fraction,
+        )
+        .delta_bic
+    };
+    let needs_both = gain_over(&first.fit, second.effect) < -options.min_bic_drop
+        && gain_over(&second.fit, first.effect) < -options.min_bic_drop;
+    let scored = score(
+        second.effect,
+        None,
+        pair,
+        current,
+        options,
+        duration_s,
+        noise_fraction,
+    );
+    (scored.significant && needs_both).then(|| JointPair {
+        first: first.clone(),
+        second: scored,
+    })
+}
+
+/// The [`PAIRED`] best added candidates by BIC that may be paired ([`pairable`]) and
+/// lower it by more than the acceptance threshold.
+fn best_added<'c>(candidates: &'c [Candidate], options: &Options) -> Vec<&'c Candidate> {
+    let mut best: Vec<&Candidate> = candidates
+        .iter()
+        .filter(|c| pairable(c) && c.replaces.is_none() && c.delta_bic < -options.min_bic_drop)
+        .collect();
+    best.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    best.truncate(PAIRED);
+    best
+}
+
+/// Where a joint fit of two candidates starts: `first`'s knobs, with `second`'s own.
+fn joint_start(first: &Candidate, second: &Candidate) -> Nonlinear {
+    let mut start = first.fit.nonlinear;
+    if let Some(k) = second.effect.knob() {
+        start.set(k, second.fit.nonlinear.get(k));
+    }
+    start.delay_as_damping |= second.fit.nonlinear.delay_as_damping;
+    start
+}
+
+/// Whether a candidate may be paired: physical, its parameter off its nested value, and
+/// not refused for what the record does not show (a delay at its contact edges or
+/// beside a damping, a drift in free space, a sub-sample delay).
+fn pairable(c: &Candidate) -> bool {
+    c.physical
+        && !c.nested
+        && !c.unseen_at_contact_edges
+        && !c.a_damping_change_in_contact
+        && !c.unseen_in_free_space
+        && !c.under_half_a_sample
+}
+
+/// A swap of one elastic law for the other (power law ↔ exponential) that passes the
+/// acceptance rule only with another effect added beside it, where neither passes alone.
+/// A mass on a one-frequency tap adds −m·ω²·(δ − δ₀) in contact, a negative linear
+/// spring: the exponential law on its linear spring takes that up and fits better than
+/// the power law alone (an independent generator's taps with a power law and a mass,
+/// NRMSE 0.82 % against 1.07 %), the mass is then not needed on it, and the greedy
+/// steps end at the exponential; the power law with the mass reaches the noise
+/// (0.25 %, BIC −31213 against −21595), each needing the other. Each swap candidate
+/// is fitted jointly with each of the [`PAIRED`] best added ones by BIC (the swap
+/// searched from its own fit's knobs and the companion's); a pair is named, as by
+/// [`joint_pair`], when it passes the rule against the current model and each of its
+/// effects lowers the BIC of the other alone by more than the threshold; of several,
+/// the best by held-out error.
+fn joint_swap(
+    data: &Prepared,
+    effects: &BTreeSet<Effect>,
+    current: &Fit,
+    candidates: &[Candidate],
+    setting: &Setting,
+) -> Option<JointPair> {
+    let companions = best_added(candidates, setting.options);
+    let pairs: Vec<(&Candidate, &Candidate)> = candidates
+        .iter()
+        .filter(|c| c.replaces.is_some() && c.physical)
+        .flat_map(|s| companions.iter().map(move |c| (s, *c)))
+        .filter(|(s, c)| !s.effect.conflicts_with(c.effect))
+        .collect();
+    let pairs = pairs
+        .into_iter()
+        .filter_map(|(swap, companion)| {
+            let mut with = effects.clone();
+            with.remove(&swap.replaces?);
+            with.insert(swap.effect);
+            with.insert(companion.effect);
+            Some((swap, companion, with, &[Knob::ContactPosition][..]))
+        })
+        .collect();
+    best_joint(data, pairs, current, setting)
 }
 
 /// The significant candidate to name and the others the record cannot tell apart from
@@ -1147,5 +1248,59 @@ mod tests {
         // Anywhere else the acceptance rule decides (here: everything passes it).
         let other = candidate(0.5);
         assert!(!other.nested && other.significant, "{other:?}");
+    }
+
+    /// Taps at one frequency on a power law with a mass (an independent generator's
+    /// seed 9100's parameters, white noise of 0.04 N): the greedy steps take the
+    /// exponential law on its linear
+    /// spring, which takes up the mass's −m·ω²·δ, and on it neither the mass nor the
+    /// power law passes alone; the power law swapped in with the mass beside it does.
+    #[test]
+    fn a_power_law_is_swapped_in_with_the_mass_it_needs() {
+        use rand::{rngs::StdRng, SeedableRng};
+        use rand_distr::{Distribution, Normal};
+        let (k, n, lambda, mass) = (794_690.0, 1.65, 22.57, 0.764);
+        let mut rng = StdRng::seed_from_u64(9100);
+        let noise = Normal::new(0.0, 0.04).unwrap();
+        let [t, x, v, a] = data::tests::taps(6.8, 10_000);
+        let f: Vec<f64> = (0..t.len())
+            .map(|i| {
+                let contact = k * x[i].max(0.0).powf(n) + lambda * v[i] + mass * a[i];
+                let law = if x[i] > 0.0 {
+                    estimator_core::laws::unilateral(contact)
+                } else {
+                    0.0
+                };
+                law + noise.sample(&mut rng)
+            })
+            .collect();
+        let data = data::prepare(
+            &t,
+            &x,
+            &f,
+            estimator_core::conditioning::ImpactConfig::default(),
+        )
+        .unwrap();
+        let diagnosis = diagnose(&data, &Options::default()).unwrap();
+        let named = diagnosis.effects_added();
+        assert_eq!(named, ["power_law_stiffness", "inertia"], "{named:?}");
+        // The swap itself: the power law for the exponential, jointly with the mass.
+        assert!(
+            diagnosis
+                .steps
+                .iter()
+                .any(|s| s.effect == Effect::PowerLawStiffness
+                    && s.replaces == Some(Effect::ExponentialStiffness)
+                    && s.jointly_with == Some(Effect::Inertia)),
+            "{:?}",
+            diagnosis
+                .steps
+                .iter()
+                .map(|s| (s.effect, s.replaces, s.jointly_with))
+                .collect::<Vec<_>>()
+        );
+        // The bound on a named effect's own parameter (0.783 kg here, +2.5 %).
+        let fitted = diagnosis.final_fit.parameter(Param::MassKg).unwrap();
+        assert!((fitted / mass - 1.0).abs() < 0.1, "{fitted}");
     }
 }

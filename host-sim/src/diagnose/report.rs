@@ -291,7 +291,19 @@ fn joint_text(out: &mut String, d: &Diagnosis, i: usize, min_bic_drop: f64) {
         .steps
         .get(i + 1)
         .is_some_and(|n| n.jointly_with == Some(s.effect));
-    if first {
+    if let (true, Some(replaced)) = (first, s.replaces) {
+        let _ = writeln!(
+            out,
+            "\nNo candidate passes the rule alone. `{}` in place of `{}` was tried with each of the {} best added candidates by BIC: with `{}` it passes the rule against this model, and each lowers the BIC of the other alone by more than {}; both are named (steps {} and {}). This step's parameters and NRMSE are the swap's alone.",
+            s.effect.id(),
+            replaced.id(),
+            super::PAIRED,
+            other.id(),
+            min_bic_drop,
+            i + 1,
+            i + 2,
+        );
+    } else if first {
         let _ = writeln!(
             out,
             "\nNo candidate passes the rule alone. The {} best by BIC were tried in pairs: `{}` with `{}` passes it against this model, and each lowers the BIC of the other alone by more than {}; both are named (steps {} and {}). This step's parameters and NRMSE are `{}` alone.",
@@ -403,7 +415,8 @@ pub fn markdown(
         f.samples,
         {
             let leading = data.leading_left_out.saturating_sub(start);
-            let kinks = (data.len() - start).saturating_sub(f.samples + leading);
+            let trailing = data.trailing_left_out;
+            let kinks = (data.len() - start).saturating_sub(f.samples + leading + trailing);
             let mut why = Vec::new();
             if kinks > 0 {
                 why.push(format!(
@@ -418,10 +431,21 @@ pub fn markdown(
                      before the record"
                 ));
             }
+            if trailing > 0 {
+                why.push(
+                    "the last: the record ends in contact, and neither its rate nor its \
+                     acceleration has a sample after it"
+                        .to_string(),
+                );
+            }
             if why.is_empty() {
                 String::new()
             } else {
-                format!(" ({} more left out: {})", kinks + leading, why.join("; "))
+                format!(
+                    " ({} more left out: {})",
+                    kinks + leading + trailing,
+                    why.join("; ")
+                )
             }
         },
         data.block,
@@ -432,7 +456,7 @@ pub fn markdown(
     );
     let _ = writeln!(
         out,
-        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error (by BIC where another accepted one's BIC is lower by more than that threshold) is added, and the loop repeats (at most {} steps). Where none passes alone, the {} best by BIC are tried in pairs, fitted jointly: a pair that passes, each of whose effects lowers the BIC of the other alone by more than that threshold, is named in two steps. At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
+        "A candidate is accepted when BIC (on the effective samples of its residual) falls by more than {} and the blocked {}-fold cross-validation error improves by at least {:.0} % and on at least {} folds; the best accepted by held-out error (by BIC where another accepted one's BIC is lower by more than that threshold) is added, and the loop repeats (at most {} steps). Where none passes alone, the {} best by BIC are tried in pairs, fitted jointly, and then a swap of the elastic law with each of them: a pair that passes, each of whose effects lowers the BIC of the other alone by more than that threshold, is named in two steps. At the end every added effect must still pass that rule against the final model without it (an effect added later can take over an earlier one's role); the least needed one that does not is removed, and the check repeats.\n",
         options.min_bic_drop,
         super::scoring::FOLDS,
         100.0 * options.min_cv_improvement,

@@ -1766,17 +1766,11 @@ mod tests {
         use rand_distr::{Distribution, Normal};
         let mut rng = StdRng::seed_from_u64(1);
         let noise = Normal::new(0.0, 0.02).unwrap();
-        let w = 2.0 * std::f64::consts::PI * 1.3;
-        let t: Vec<f64> = (0..8000).map(|i| i as f64 * 1e-3).collect();
-        let x: Vec<f64> = t
+        let [t, x, v, _] = crate::diagnose::data::tests::taps(1.3, 8000);
+        let f: Vec<f64> = x
             .iter()
-            .map(|&t| -0.2e-3 + 0.6e-3 * (1.0 - (w * t).cos()))
-            .collect();
-        let f: Vec<f64> = t
-            .iter()
-            .zip(&x)
-            .map(|(&t, &x)| {
-                let v = 0.6e-3 * w * (w * t).sin();
+            .zip(&v)
+            .map(|(&x, &v)| {
                 let law = if x > 0.0 {
                     (3e5 * x.powf(1.5) + 10.0 * v).max(0.0)
                 } else {
