@@ -799,6 +799,13 @@ pub fn prepare_file(
             String::new()
         }
     ));
+    if prepared.trailing_left_out > 0 {
+        notes.push(
+            "the record ends in contact: its last sample is left out of every fit and score, \
+             since neither its rate nor its acceleration has a sample after it"
+                .to_string(),
+        );
+    }
     if prepared.leading_left_out > 0 {
         notes.push(format!(
             "the record begins in contact: its first {} samples ({:.0} ms, the longest \

@@ -130,7 +130,7 @@ pub struct Prepared {
     pub accel_m_per_s2: Vec<f64>,
     /// The sample is left out of every fit and of what decides (RSS, N, NRMSE, BIC, the
     /// folds, the contact edges, the speed spread of the one-speed rules); the
-    /// localisation and the residual plots still show it. Two kinds:
+    /// localisation and the residual plots still show it. Three kinds:
     /// - its rate reads across a kink of the motion (a ramp starting, stopping or
     ///   reversing within a sample: the symmetric difference there is neither side's
     ///   rate, and a Kelvin-Voigt law turns it into a force λ·Δv/2 off, tens of noise
@@ -154,9 +154,11 @@ pub struct Prepared {
     /// otherwise.
     pub leading_left_out: usize,
     /// 1 where the record's last fitting sample is in contact (and not left out for a
-    /// kink), 0 otherwise: its rate is a one-sided difference and its δ̈, a second
-    /// difference, has no sample after it (set to 0), so a mass's m·δ̈ and a damping's
-    /// λ·δ̇ are misread there. (An independent generator's taps with a mass and a
+    /// kink), 0 otherwise: its δ̈, a second difference, has no sample after it (set to
+    /// 0), so a mass's m·δ̈ is missing there, and its rate is a one-sided difference.
+    /// (Where the rate's symmetric window is wider than one sample on each side, the
+    /// samples before the last read a clipped window too, a lag of up to half the window
+    /// in λ·δ̇; they are kept.) (An independent generator's taps with a mass and a
     /// relaxation end mid-tap: at the true parameters that one sample was about 1 N off,
     /// and the last fifth's held-out error 0.045 N against 0.026 N without it, worse than
     /// a model without the mass.) Left out only while the record keeps its end

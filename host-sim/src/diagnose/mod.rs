@@ -197,7 +197,8 @@ pub struct Step {
     /// The effect it replaced, if any (power law ↔ exponential elasticity).
     pub replaces: Option<Effect>,
     /// The other effect of a pair named together (set on both of its steps): neither
-    /// passed the acceptance rule alone, the pair did (`joint_pair`). The first step's
+    /// passed the acceptance rule alone, the pair did (`joint_pair`, or `joint_swap`
+    /// where the first step swaps the elastic law). The first step's
     /// `after` is its effect alone; the second's `candidates` hold the pair, scored
     /// against the model before the first.
     pub jointly_with: Option<Effect>,
@@ -898,7 +899,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
 /// Candidates tried in pairs where none passes alone: the best few by BIC.
 pub const PAIRED: usize = 3;
 
-/// Two effects named together ([`joint_pair`]).
+/// Two effects named together ([`joint_pair`], [`joint_swap`]).
 struct JointPair {
     /// The first, as it was fitted alone (it did not pass the acceptance rule alone).
     first: Candidate,
@@ -937,37 +938,40 @@ fn joint_pair(
             let mut with = effects.clone();
             with.insert(a.effect);
             with.insert(b.effect);
-            // (The contact position searched where either effect's fit searched it:
-            // `Effect::searched_knobs`.)
-            let searches_contact = |e: Effect| e.searched_knobs().contains(&Knob::ContactPosition);
-            let global: &[Knob] = if searches_contact(a.effect) || searches_contact(b.effect) {
-                &[Knob::ContactPosition]
-            } else {
-                &[]
-            };
-            (a, b, with, global)
+            (a, b, with)
         })
         .collect();
     best_joint(data, pairs, current, setting)
 }
 
-/// Of `pairs` (first, second, the model with both, the knobs searched globally), each
-/// fitted jointly from both effects' own knobs ([`joint_start`]) and judged by
+/// Of `pairs` (first, second, the model with both), each fitted jointly from both
+/// effects' own knobs ([`joint_start`]), the contact position searched where either
+/// effect's fit searched it ([`Effect::searched_knobs`]), and judged by
 /// [`judged_jointly`], the one named: the best by held-out error.
 fn best_joint(
     data: &Prepared,
-    pairs: Vec<(&Candidate, &Candidate, BTreeSet<Effect>, &[Knob])>,
+    pairs: Vec<(&Candidate, &Candidate, BTreeSet<Effect>)>,
     current: &Fit,
     setting: &Setting,
 ) -> Option<JointPair> {
+    let searches_contact = |e: Effect| e.searched_knobs().contains(&Knob::ContactPosition);
     pairs
         .into_par_iter()
-        .filter_map(|(first, second, with, global)| {
+        .filter_map(|(first, second, with)| {
+            let mut global: Vec<Knob> =
+                if searches_contact(first.effect) || searches_contact(second.effect) {
+                    vec![Knob::ContactPosition]
+                } else {
+                    vec![]
+                };
+            if first.replaces.is_some() {
+                global.extend(first.effect.knob());
+            }
             let pair = fit(
                 data,
                 &with,
                 &joint_start(first, second),
-                global,
+                &global,
                 Effort::REFINE,
             )?;
             judged_jointly(data, pair, first, second, current, setting)
@@ -1078,20 +1082,54 @@ fn joint_swap(
     setting: &Setting,
 ) -> Option<JointPair> {
     let companions = best_added(candidates, setting.options);
-    let pairs: Vec<(&Candidate, &Candidate)> = candidates
-        .iter()
-        .filter(|c| c.replaces.is_some() && c.physical)
-        .flat_map(|s| companions.iter().map(move |c| (s, *c)))
-        .filter(|(s, c)| !s.effect.conflicts_with(c.effect))
+    if companions.is_empty() {
+        return None;
+    }
+    // A swap that fits worse than the current model is rarely among the screen's best
+    // few, which alone are refined: it is refined here, so that the companion's gain is
+    // judged against the swap's own best fit, not its screen, and the swap's step shows
+    // its standard errors. (A swap is never nested, and the other refusals are a delay's
+    // or a drift's: `physical` is all of `pairable` that applies.)
+    let swaps: Vec<(Candidate, BTreeSet<Effect>)> = candidates
+        .par_iter()
+        .filter(|c| c.physical)
+        .filter_map(|swap| {
+            let mut swapped = effects.clone();
+            swapped.remove(&swap.replaces?);
+            swapped.insert(swap.effect);
+            let knobs = swap.effect.searched_knobs();
+            let refined = fit(data, &swapped, &swap.fit.nonlinear, &knobs, Effort::REFINE)
+                .filter(|r| r.rss <= swap.fit.rss)
+                .map(|r| {
+                    score(
+                        swap.effect,
+                        swap.replaces,
+                        r,
+                        current,
+                        setting.options,
+                        setting.duration_s,
+                        setting.noise_fraction,
+                    )
+                })
+                .unwrap_or_else(|| {
+                    let mut kept = swap.clone();
+                    solver::add_uncertainties(data, &mut kept.fit);
+                    kept
+                });
+            Some((refined, swapped))
+        })
         .collect();
-    let pairs = pairs
-        .into_iter()
-        .filter_map(|(swap, companion)| {
-            let mut with = effects.clone();
-            with.remove(&swap.replaces?);
-            with.insert(swap.effect);
-            with.insert(companion.effect);
-            Some((swap, companion, with, &[Knob::ContactPosition][..]))
+    let pairs = swaps
+        .iter()
+        .flat_map(|(swap, swapped)| {
+            companions
+                .iter()
+                .filter(|c| !swap.effect.conflicts_with(c.effect))
+                .map(move |c| {
+                    let mut with = swapped.clone();
+                    with.insert(c.effect);
+                    (swap, *c, with)
+                })
         })
         .collect();
     best_joint(data, pairs, current, setting)

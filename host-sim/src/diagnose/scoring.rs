@@ -20,7 +20,8 @@ fn contiguous_fold(fold: usize, n: usize) -> std::ops::Range<usize> {
 /// linear coefficients are refitted without each fold and tested on it. A fold is a
 /// contiguous fifth of the fit window, or, with `block`, every fifth block of `block`
 /// samples ([`interleaved_block`]). The samples flagged in `left_out` (the record's
-/// `Prepared::left_out`: kinks, a record's leading samples; empty: none) are neither
+/// `Prepared::left_out`: kinks, a record's leading samples and its last one in contact;
+/// empty: none) are neither
 /// fitted nor tested. Returns the held-out RMS error of
 /// each fold \[N\] (infinite where the fold cannot be fitted).
 pub(super) fn cross_validate(
