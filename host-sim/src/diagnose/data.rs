@@ -740,8 +740,8 @@ pub(super) mod tests {
 
     /// A record that begins in contact leaves out as many leading fitting samples as the
     /// longest delay tried spans (50 ms), whatever the block; one that begins out of
-    /// contact leaves none; one that ends in contact leaves its last sample out; the kinks
-    /// are counted apart from them.
+    /// contact leaves none; one that ends in contact leaves its last sample out, unless it
+    /// is cut at the end of a phase; the kinks are counted apart from them.
     #[test]
     fn a_record_that_begins_in_contact_leaves_out_the_longest_delay() {
         let pressed = log(4.0, |t| 1e-3 + 0.5e-3 * (6.0 * t).sin());
@@ -768,6 +768,16 @@ pub(super) mod tests {
         let lifted = log(4.0, |t| 1e-3 * (1.0 - (t - 2.0).abs()));
         assert_eq!(lifted.trailing_left_out, 0);
         assert!(!lifted.left_out[lifted.len() - 1]);
+        // Cut at the end of its loading, a ramp-and-hold keeps its new last sample: that
+        // one has its neighbour.
+        let mut held = log(6.0, |t| 1e-3 * (t - 1.0).clamp(0.0, 2.0));
+        assert_eq!(held.trailing_left_out, 1);
+        let whole = held.len();
+        assert!(held.keep_until_end_of(Phase::Loading));
+        assert!(held.len() < whole, "{} of {whole}", held.len());
+        assert_eq!(held.trailing_left_out, 0);
+        assert!(!held.left_out[held.len() - 1]);
+        assert_eq!(held.kinks(), held.left_out.iter().filter(|k| **k).count());
         assert!(!approached.left_out[0]);
     }
 }
