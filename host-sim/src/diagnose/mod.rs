@@ -926,14 +926,11 @@ fn joint_pair(
     setting: &Setting,
 ) -> Option<JointPair> {
     let singles = best_added(candidates, setting.options);
-    let pairs: Vec<(&Candidate, &Candidate)> = singles
+    let pairs = singles
         .iter()
         .enumerate()
         .flat_map(|(i, a)| singles[i + 1..].iter().map(move |b| (*a, *b)))
         .filter(|(a, b)| !a.effect.conflicts_with(b.effect))
-        .collect();
-    let pairs = pairs
-        .into_iter()
         .map(|(a, b)| {
             let mut with = effects.clone();
             with.insert(a.effect);
@@ -1220,6 +1217,18 @@ mod tests {
         assert!(error.to_string().contains("hammerstein2"), "{error}");
     }
 
+    /// A 1 kHz log prepared as the workflow's own front end would (the impact detector's
+    /// offset and contact point).
+    fn prepared(t: &[f64], x: &[f64], f: &[f64]) -> Prepared {
+        data::prepare(
+            t,
+            x,
+            f,
+            estimator_core::conditioning::ImpactConfig::default(),
+        )
+        .unwrap()
+    }
+
     #[test]
     fn an_effect_whose_parameter_stayed_at_its_nested_value_is_never_named() {
         // Kelvin-Voigt taps (κ = 5e3 N/m, λ = 50 N·s/m) with a little noise: depth damping
@@ -1242,13 +1251,7 @@ mod tests {
                     + noise
             })
             .collect();
-        let data = data::prepare(
-            &t,
-            &x,
-            &f,
-            estimator_core::conditioning::ImpactConfig::default(),
-        )
-        .unwrap();
+        let data = prepared(&t, &x, &f);
         let baseline: BTreeSet<Effect> = BTreeSet::new();
         let current = fit(
             &data,
@@ -1312,13 +1315,7 @@ mod tests {
                 law + noise.sample(&mut rng)
             })
             .collect();
-        let data = data::prepare(
-            &t,
-            &x,
-            &f,
-            estimator_core::conditioning::ImpactConfig::default(),
-        )
-        .unwrap();
+        let data = prepared(&t, &x, &f);
         let diagnosis = diagnose(&data, &Options::default()).unwrap();
         let named = diagnosis.effects_added();
         assert_eq!(named, ["power_law_stiffness", "inertia"], "{named:?}");

@@ -703,25 +703,19 @@ mod tests {
 
     /// 8 Hz taps that leave contact every cycle (contact at δ = 0), 4 s at 1 kHz, the
     /// force a spring, a damper and a 1.5 kg mass in contact (acceleration exact), and the
-    /// acceleration as a function of time.
-    fn taps() -> (Prepared, impl Fn(f64) -> f64) {
-        let w = 2.0 * PI * 8.0;
-        let x = move |t: f64| -0.2e-3 + 0.6e-3 * (1.0 - (w * t).cos());
-        let a = move |t: f64| 0.6e-3 * w * w * (w * t).cos();
-        let t: Vec<f64> = (0..4000).map(|i| i as f64 * 1e-3).collect();
-        let position: Vec<f64> = t.iter().map(|&t| x(t)).collect();
-        let force: Vec<f64> = t
-            .iter()
-            .map(|&t| {
-                let d = x(t);
-                if d > 0.0 {
-                    5e3 * d + 10.0 * 0.6e-3 * w * (w * t).sin() + 1.5 * a(t)
+    /// acceleration of each raw sample.
+    fn taps() -> (Prepared, Vec<f64>) {
+        let [t, x, v, a] = crate::diagnose::data::tests::taps(8.0, 4000);
+        let force: Vec<f64> = (0..t.len())
+            .map(|i| {
+                if x[i] > 0.0 {
+                    5e3 * x[i] + 10.0 * v[i] + 1.5 * a[i]
                 } else {
                     0.0
                 }
             })
             .collect();
-        let data = prepare_known(&t, &position, &force, 0.0, 0.0, 1e-3, 1).expect("prepared");
+        let data = prepare_known(&t, &x, &force, 0.0, 0.0, 1e-3, 1).expect("prepared");
         (data, a)
     }
 
@@ -755,8 +749,7 @@ mod tests {
             if inside.is_empty() || inside.len() == data.block {
                 continue;
             }
-            let truth: f64 =
-                inside.iter().map(|&j| accel(j as f64 * 1e-3)).sum::<f64>() / data.block as f64;
+            let truth: f64 = inside.iter().map(|&j| accel[j]).sum::<f64>() / data.block as f64;
             errors.push((value - truth) / scale);
         }
         assert!(errors.len() > 30, "{} edge blocks", errors.len());
