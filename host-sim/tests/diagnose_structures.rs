@@ -31,7 +31,7 @@
 
 use std::collections::BTreeMap;
 
-use host_sim::diagnose::catalogue::{Determination, Effect, Param};
+use host_sim::diagnose::catalogue::{Determination, Effect, Estimate, Param};
 use host_sim::diagnose::spec::ModelSpec;
 use host_sim::diagnose::{Diagnosis, Options};
 use host_sim::files::{diagnose_file, FileDiagnosis};
@@ -628,6 +628,15 @@ fn delayed_sine(seed: u64, lift_off: bool, delay_s: f64) -> Vec<(f64, f64, f64)>
         .collect()
 }
 
+/// The final model's delay estimate (panics without one).
+fn final_delay(d: &Diagnosis) -> Estimate {
+    *d.final_fit
+        .parameters
+        .iter()
+        .find(|p| p.param == Param::DelayS)
+        .expect("the final model has a delay")
+}
+
 /// A delay on a record that stays in contact at one frequency only rotates the force's
 /// phase, which the stiffness and damping re-split exactly: it is listed as not
 /// identifiable and never named (the independent generator's clean KV sine in contact,
@@ -738,8 +747,17 @@ fn a_delay_the_contact_edges_do_not_show_is_not_named() {
 /// τ, as `np.concatenate([zeros(k), f[:-k]])` makes it), white noise of 0.05 N, a 0.4 N
 /// offset.
 fn delayed_two_sines(seed: u64, lambda: f64, delay_s: f64) -> Vec<(f64, f64, f64)> {
+    delayed_two_sines_of(seed, |z| 8000.0 * z, lambda, delay_s)
+}
+
+/// [`delayed_two_sines`] with the elastic law `elastic` (force \[N\] of depth \[m\]).
+fn delayed_two_sines_of(
+    seed: u64,
+    elastic: impl Fn(f64) -> f64,
+    lambda: f64,
+    delay_s: f64,
+) -> Vec<(f64, f64, f64)> {
     let mut rng = StdRng::seed_from_u64(seed);
-    let kappa = 8000.0;
     let tau = std::f64::consts::TAU;
     let (f1, f2): (f64, f64) = (rng.random_range(0.4..1.2), rng.random_range(2.2..3.6));
     let phase = rng.random_range(0.0..tau);
@@ -754,7 +772,7 @@ fn delayed_two_sines(seed: u64, lambda: f64, delay_s: f64) -> Vec<(f64, f64, f64
             let f = if t < delay_s {
                 0.0
             } else {
-                kappa * z(t - delay_s) + lambda * v(t - delay_s)
+                elastic(z(t - delay_s)) + lambda * v(t - delay_s)
             };
             (t, z(t), 0.4 + f + noise.sample(&mut rng))
         })
@@ -779,12 +797,7 @@ fn a_delay_in_contact_is_named_only_where_no_passive_damping_explains_the_lag() 
         let rows = delayed_two_sines(seed, lambda, delay);
         let d = diagnose_rows(dir.path(), &format!("lag-{seed}.csv"), &rows);
         assert_eq!(d.effects_added(), ["time_delay"], "seed {seed}");
-        let delay_s = d
-            .final_fit
-            .parameters
-            .iter()
-            .find(|p| p.param == Param::DelayS)
-            .unwrap();
+        let delay_s = final_delay(&d);
         assert_eq!(
             delay_s.determination,
             Determination::DampingCombination(Param::Lambda),
@@ -820,6 +833,50 @@ fn a_delay_in_contact_is_named_only_where_no_passive_damping_explains_the_lag() 
                 .chain(&d.final_candidates)
                 .any(|c| c.effect == Effect::TimeDelay && c.a_damping_change_in_contact),
             "seed {seed}: the delay was not refused as a damping"
+        );
+    }
+}
+
+/// The same lag on a power-law material (k·δ^1.6, k = 4e5 N/m^1.6: 12 N and a tangent
+/// stiffness of 12.8 kN/m at 1.5 mm): each sample's damping is λ − τ·dF_e/dδ, so the
+/// lag test reads their rate-weighted mean (`Fit::lag_damping_n_s_per_m`), here
+/// 12 − 0.006 × ≈ 13 000 ≈ −65 N·s/m: the delay is named beside the power law, τ within
+/// 10 % and determined (a depth-dependent tangent stiffness is not a plain damping). With
+/// λ = 150 N·s/m the lag is a damping to the record and the delay is refused as one.
+/// (Before, the test read λ − κ·τ and, the power law having no κ, refused every delay
+/// beside it: the independent generator's sines pressed in contact with a power law and
+/// a delay named both at 8 of 20, 20 of 20 since.)
+#[test]
+fn a_delay_in_contact_beside_a_power_law_is_named_from_its_lag() {
+    let dir = tempfile::tempdir().unwrap();
+    let (k, n, delay) = (4.0e5, 1.6, 0.006);
+    let law = |z: f64| k * z.max(0.0).powf(n);
+    for seed in 0..2 {
+        let rows = delayed_two_sines_of(seed, law, 12.0, delay);
+        let d = diagnose_rows(dir.path(), &format!("lag-{seed}.csv"), &rows);
+        let added = d.effects_added();
+        assert!(
+            added.contains(&"power_law_stiffness") && added.contains(&"time_delay"),
+            "seed {seed}: {added:?}"
+        );
+        let delay_s = final_delay(&d);
+        assert_eq!(
+            delay_s.determination,
+            Determination::Determined,
+            "seed {seed}"
+        );
+        assert_within_10_percent(Some(delay_s.value), delay, &format!("seed {seed}: τ"));
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::N),
+            n,
+            &format!("seed {seed}: n"),
+        );
+        let rows = delayed_two_sines_of(seed, law, 150.0, delay);
+        let d = diagnose_rows(dir.path(), &format!("damped-{seed}.csv"), &rows);
+        assert!(
+            !d.effects_added().contains(&"time_delay"),
+            "seed {seed}: {:?}",
+            d.effects_added()
         );
     }
 }
@@ -888,14 +945,7 @@ fn a_delay_the_contact_edges_do_not_show_is_named_from_its_lag_with_only_the_com
         let p = |q| d.final_fit.parameter(q).unwrap();
         p(Param::Lambda) - p(Param::Kappa) * p(Param::DelayS)
     };
-    let determination = |d: &Diagnosis| {
-        d.final_fit
-            .parameters
-            .iter()
-            .find(|p| p.param == Param::DelayS)
-            .unwrap()
-            .determination
-    };
+    let determination = |d: &Diagnosis| final_delay(d).determination;
     let tau_of = |d: &Diagnosis| d.final_fit.parameter(Param::DelayS).unwrap();
     let mut from_the_lag = 0;
     for seed in 0..3 {

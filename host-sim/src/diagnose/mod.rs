@@ -679,13 +679,15 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // The lag a delay fit asks for beyond a passive damping: its λ − κ·τ
                 // below zero by more than two standard errors of λ (at the fitted τ,
                 // that of the combination along the valley where the two trade).
+                // (With a power law or an exponential one, the combination is the
+                // rate-weighted λ − τ·dF_e/dδ, `Fit::lag_damping_n_s_per_m`; read as
+                // λ − κ·τ alone it was never formed without a κ, and the independent
+                // generator's sines pressed in contact with a power law and a delay
+                // were refused at 8 of 20.)
                 let lags_significantly = {
-                    let p = |q: Param| scored.fit.parameters.iter().find(|p| p.param == q).copied();
                     let se = scored.fit.damping_combination_se;
-                    match (p(Param::Kappa), p(Param::Lambda)) {
-                        (Some(kappa), Some(lambda)) if se.is_finite() => {
-                            lambda.value - kappa.value * tau + 2.0 * se < 0.0
-                        }
+                    match scored.fit.lag_damping_n_s_per_m(data) {
+                        Some(lag_damping) if se.is_finite() => lag_damping + 2.0 * se < 0.0,
                         _ => false,
                     }
                 };

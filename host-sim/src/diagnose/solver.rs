@@ -238,6 +238,38 @@ impl Fit {
             p(Param::Kappa) * depth_m.max(0.0)
         }
     }
+
+    /// The plain damping λ_d \[N·s/m\] that stands, to first order, for the model's
+    /// damping and delay in contact: with F_e(δ(t − τ)) ≈ F_e(δ) − τ·F_e′(δ)·δ̇, each
+    /// sample's damping is λ·s(δ) − τ·F_e′(δ) (s = δ^q with a depth-dependent damping,
+    /// eq. 3, else 1; τ = 0 without a delay), and λ_d is their mean weighted by δ̇², the
+    /// coefficient a column λ_d·δ̇ fitted to them by least squares would take. Over the
+    /// fit window's counted samples in contact (δ > 0 from the model's own contact
+    /// point); F_e′ a centred difference of [`Fit::elastic_force_n`] (one-sided at the
+    /// surface). For a linear law it is λ − κ·τ. `None` without a damping parameter or
+    /// without a moving sample in contact.
+    pub fn lag_damping_n_s_per_m(&self, data: &Prepared) -> Option<f64> {
+        let lambda = self.parameter(Param::Lambda)?;
+        let tau = self.parameter(Param::DelayS).unwrap_or(0.0);
+        let q = self
+            .effects
+            .contains(&Effect::DepthDependentDamping)
+            .then(|| self.parameter(Param::Q).unwrap_or(0.0));
+        let depth = |i: usize| data.depth_m[i] - self.nonlinear.contact_m;
+        let counted = || (self.start..data.len()).filter(|&i| !data.left_out[i] && depth(i) > 0.0);
+        let deepest = counted().map(depth).fold(0.0f64, f64::max);
+        let h = 1e-4 * deepest;
+        let (mut sum, mut weight) = (0.0, 0.0);
+        for i in counted() {
+            let (d, v) = (depth(i), data.rate_m_per_s[i]);
+            let (lo, hi) = ((d - h).max(0.0), d + h);
+            let tangent = (self.elastic_force_n(hi) - self.elastic_force_n(lo)) / (hi - lo);
+            let shape = q.map_or(1.0, |q| laws::power_law(d, q));
+            sum += (lambda * shape - tau * tangent) * v * v;
+            weight += v * v;
+        }
+        (weight > 0.0).then(|| sum / weight)
+    }
 }
 
 /// Evaluates one model with fixed nonlinear parameters. A unilateral contact cannot
