@@ -534,6 +534,85 @@ fn diagnose_rows_file(
     diagnose_as_a_user(&dir.join(name), &text).unwrap()
 }
 
+/// (time \[s\], position \[m\], force \[N\]) of 12 s of taps at `hz` from 0.2 mm out to
+/// 1 mm deep (1 kHz, 1 µm encoder steps) into k·δⁿ + λ·δ̇ with a mass `mass_kg` moving
+/// with the surface in contact (its m·δ̈), unilateral, over a 0.3 N offset, with white
+/// noise of 0.5 % of the force range and the force quantised at 12 bits over 1.2× its
+/// peak: an independent generator's taps with a power law and a mass.
+fn taps_on_a_mass(
+    seed: u64,
+    hz: f64,
+    (k, n, lambda, mass_kg): (f64, f64, f64, f64),
+) -> Vec<(f64, f64, f64)> {
+    let w = std::f64::consts::TAU * hz;
+    let time: Vec<f64> = (0..12_000).map(|i| i as f64 * 1e-3).collect();
+    let clean: Vec<f64> = time
+        .iter()
+        .map(|&t| {
+            let d = -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
+            let (v, a) = (0.6e-3 * w * (w * t).sin(), 0.6e-3 * w * w * (w * t).cos());
+            if d > 0.0 {
+                (k * d.powf(n) + lambda * v + mass_kg * a).max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let peak = clean.iter().copied().fold(0.0, f64::max);
+    let (noise, lsb) = (Normal::new(0.0, 0.005 * peak).unwrap(), 1.2 * peak / 4096.0);
+    let mut rng = StdRng::seed_from_u64(seed);
+    time.iter()
+        .zip(&clean)
+        .map(|(&t, &f)| {
+            let d = -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
+            let x = (d * 1e6).round() * 1e-6;
+            (
+                t,
+                x,
+                ((f + 0.3 + noise.sample(&mut rng)) / lsb).round() * lsb,
+            )
+        })
+        .collect()
+}
+
+/// Taps on a power law with a linear damping and a mass (the independent generator's
+/// seeds 9101 and 9114: k, n, λ, m as there, at 7 and 8 Hz): no memoryless law of the
+/// front end fits the mass's step at each onset and its −m·ω²·(δ − δ̄) in contact, and
+/// the best of them had put the contact point behind the whole record (read as never
+/// leaving contact, the offset held at 0, the mass untried; an exponential law and a
+/// plastic set or a depth-dependent damping named). Where some law sees repeated onsets
+/// and the chosen one leaves more than 1.5 noise deviations, the front end refits its
+/// laws with a mass (`files::prepare_file`), takes the one that sees the onsets and fits
+/// 1.5× better, and the diagnosis names the power law and the mass, each within 10 %.
+/// (At 6 Hz the mass's fits gain only 1.4-1.5× on three of four such parameter sets, and
+/// the record is diagnosed as before.)
+#[test]
+fn taps_on_a_mass_name_the_power_law_and_the_mass() {
+    let dir = tempfile::tempdir().unwrap();
+    for (seed, hz, truth) in [
+        (9101, 7.0, (5.357e5, 1.659, 18.88, 1.166)),
+        (9114, 8.0, (6.948e5, 1.713, 5.26, 0.967)),
+    ] {
+        let rows = taps_on_a_mass(seed, hz, truth);
+        let d = diagnose_rows(dir.path(), &format!("taps-{seed}.csv"), &rows);
+        let added = d.effects_added();
+        assert!(
+            added.contains(&"inertia") && added.contains(&"power_law_stiffness"),
+            "seed {seed}: {added:?}"
+        );
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::MassKg),
+            truth.3,
+            &format!("seed {seed}: m"),
+        );
+        assert_within_10_percent(
+            d.final_fit.parameter(Param::N),
+            truth.1,
+            &format!("seed {seed}: n"),
+        );
+    }
+}
+
 /// A load-cell zero shift after the first contact, on Kelvin-Voigt taps sampled at 124 Hz:
 /// the case that made the BIC, not the held-out error alone, choose among accepted
 /// candidates (`diagnose::choose`). Held out, the first contact is the only stretch that

@@ -385,9 +385,10 @@ pub fn law_along_with_contact(front: &FrontEnd, model: ModelKind) -> Along {
     let h = 1e-4 * deepest;
     let contact = (model != ModelKind::KelvinVoigt && h.is_normal()).then(|| {
         let t = &front.series.time_s;
+        let accel = super::accel_along(&front.series, front.position_sign);
         let at = |shift: f64| {
             let d: Vec<f64> = depth.iter().map(|d| d - shift).collect();
-            front.law.predict(&d, &rate, t)
+            front.law.predict(&d, &rate, &accel, t)
         };
         // ∂F/∂u_c with δ = u − u_c.
         at(h)

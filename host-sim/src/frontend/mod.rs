@@ -178,6 +178,13 @@ impl FrontEnd {
     pub fn law_along(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         law_along(&self.series, self.position_sign, &self.law)
     }
+
+    /// The law misses the contact by more than 5 noise deviations and 2 % of the force
+    /// range (RMS over the points in contact), as [`analyse`] judges it before fitting the
+    /// loading curve alone.
+    pub fn misfits_contact(&self) -> bool {
+        misfits(&self.series, self.position_sign, &self.law, self.noise_n)
+    }
 }
 
 /// Why a record cannot be set up for estimation.
@@ -229,7 +236,7 @@ pub fn analyse(
     family: LawFamily,
     options: &Options,
 ) -> Result<FrontEnd, FrontEndError> {
-    analyse_oriented(time_s, position_m, force_n, family, options, None)
+    analyse_oriented(time_s, position_m, force_n, family, options, None, false)
 }
 
 /// How many times smaller the exponential law's RMS residual must be than the better
@@ -295,7 +302,8 @@ impl AxisSource {
 /// (reported as is). The other orientation is not fitted: where one family's fit
 /// already tells the orientations apart, a further family only needs the contact law on
 /// the right one (the wrong one costs as much or more: its laws misfit, and refit their
-/// free points). `None`: as [`analyse`].
+/// free points). `None`: as [`analyse`]. With `inertia` every fit of the law adds a mass
+/// m·δ̈ in contact ([`Problem::with_inertia`]; `LawFit::mass_kg`).
 ///
 /// # Errors
 /// As [`analyse`].
@@ -306,8 +314,21 @@ pub fn analyse_oriented(
     family: LawFamily,
     options: &Options,
     oriented: Option<(f64, AxisSource)>,
+    inertia: bool,
 ) -> Result<FrontEnd, FrontEndError> {
     let samples = force_n.len();
+    // Every fit of this law, with the mass's column where asked.
+    fn problem_with(inertia: bool) -> impl Fn(&Series, f64, LawFamily, OffsetTerm) -> Problem<'_> {
+        move |series, sign, family, offset| {
+            let p = Problem::new(series, sign, family, offset);
+            if inertia {
+                p.with_inertia()
+            } else {
+                p
+            }
+        }
+    }
+    let problem = problem_with(inertia);
     let (flo, fhi) = min_max(force_n);
     if fhi.partial_cmp(&flo) != Some(std::cmp::Ordering::Greater) {
         return Err(FrontEndError::ConstantForce {
@@ -349,7 +370,7 @@ pub fn analyse_oriented(
     let mut fits: Vec<(f64, LawFit)> = signs
         .par_iter()
         .filter_map(|&s| {
-            Problem::new(&series, s, family, free_offset)
+            problem(&series, s, family, free_offset)
                 .fit()
                 .map(|f| (s, f))
         })
@@ -376,7 +397,7 @@ pub fn analyse_oriented(
     if misfit {
         // First the unilateral contact to convergence: a heavily damped law leaves the
         // surface for the whole retract, which one round of freeing does not see.
-        if let Some(fit) = Problem::new(&series, sign, family, free_offset)
+        if let Some(fit) = problem(&series, sign, family, free_offset)
             .converging_free_points()
             .fit()
             .filter(|f| !misfits(&series, sign, f, noise_n))
@@ -389,7 +410,7 @@ pub fn analyse_oriented(
     if misfit {
         let keep = loading_curve(&series, sign);
         let subset = series.subset(&keep);
-        if let Some(fit) = Problem::new(&subset, sign, family, free_offset)
+        if let Some(fit) = problem(&subset, sign, family, free_offset)
             .without_damping()
             .fit()
         {
@@ -416,7 +437,7 @@ pub fn analyse_oriented(
     let law = match offset_term {
         OffsetTerm::Free => free_fit,
         OffsetTerm::Fixed(_) => {
-            let problem = Problem::new(&series, sign, family, offset_term);
+            let problem = problem(&series, sign, family, offset_term);
             if loading_only.is_some() {
                 problem.without_damping()
             } else if converged_free_points {
@@ -529,8 +550,13 @@ fn loading_curve(series: &Series, sign: f64) -> Vec<bool> {
 /// unclamped), one entry per point.
 fn law_along(series: &Series, sign: f64, fit: &LawFit) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let (depth, rate) = depth_and_rate(series, sign, fit.contact_m);
-    let force = fit.predict(&depth, &rate, &series.time_s);
+    let force = fit.predict(&depth, &rate, &accel_along(series, sign), &series.time_s);
     (depth, rate, force)
+}
+
+/// Along `series` on the axis `sign`: the acceleration into the material \[m/s²\].
+pub(crate) fn accel_along(series: &Series, sign: f64) -> Vec<f64> {
+    series.accel_m_per_s2.iter().map(|a| sign * a).collect()
 }
 
 /// Along `series` on the axis `sign`: the penetration below the contact point `contact_m`
@@ -904,9 +930,13 @@ fn describe(
         }
     }
     let law = family.describe();
+    let mass = match front.law.mass_kg {
+        m if m > 0.0 => format!(" and a mass m·δ̈ in contact (m = {m:.3e} kg)"),
+        _ => String::new(),
+    };
     front.notes.push(format!(
         "contact point {:.6e} m on the file's position axis, from the joint least-squares fit of offset, \
-         contact point and the {law} law to all {} samples ({} points, one per {} samples, each the mean of {}{}); {}",
+         contact point and the {law} law{mass} to all {} samples ({} points, one per {} samples, each the mean of {}{}); {}",
         front.contact_position_m,
         total,
         front.series.len(),

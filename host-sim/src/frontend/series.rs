@@ -55,6 +55,9 @@ pub struct Series {
     pub position_m: Vec<f64>,
     /// Rate of the position \[m/s\]: the native symmetric difference, mean over the run.
     pub rate_m_per_s: Vec<f64>,
+    /// Acceleration of the position \[m/s²\]: the symmetric difference of the points'
+    /// rates over their neighbours (one-sided at the ends), for a mass's m·δ̈.
+    pub accel_m_per_s2: Vec<f64>,
     /// Force \[N\] (mean over its run).
     pub force_n: Vec<f64>,
     /// Native samples each point stands for (the block length).
@@ -123,6 +126,7 @@ impl Series {
             &rate,
         );
         Series {
+            accel_m_per_s2: point_accel(&time, &rate),
             time_s: time,
             position_m: position,
             rate_m_per_s: rate,
@@ -163,6 +167,7 @@ impl Series {
             time_s: pick(&self.time_s),
             position_m: pick(&self.position_m),
             rate_m_per_s: pick(&self.rate_m_per_s),
+            accel_m_per_s2: pick(&self.accel_m_per_s2),
             force_n: pick(&self.force_n),
             spread_m: pick(&self.spread_m),
             block: self.block,
@@ -181,6 +186,23 @@ impl Series {
     pub fn is_empty(&self) -> bool {
         self.time_s.is_empty()
     }
+}
+
+/// The derivative of the points' `rate` over their `time`: the symmetric difference over
+/// each point's neighbours, one-sided at the ends (0 for fewer than two points).
+fn point_accel(time: &[f64], rate: &[f64]) -> Vec<f64> {
+    let n = time.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n.saturating_sub(1)));
+            let dt = time[b] - time[a];
+            if b > a && dt > 0.0 {
+                (rate[b] - rate[a]) / dt
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// Samples averaged per point: `block`, halved while the 99th percentile over the blocks
