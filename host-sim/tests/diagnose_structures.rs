@@ -918,7 +918,7 @@ fn a_delay_in_contact_is_named_only_where_no_passive_damping_explains_the_lag() 
 
 /// The same lag on a power-law material (k·δ^1.6, k = 4e5 N/m^1.6: 12 N and a tangent
 /// stiffness of 12.8 kN/m at 1.5 mm): each sample's damping is λ − τ·dF_e/dδ, so the
-/// lag test reads their rate-weighted mean (`Fit::lag_damping_n_s_per_m`), here
+/// lag test reads their rate-weighted mean (`Fit::lag_damping`), here
 /// 12 − 0.006 × ≈ 13 000 ≈ −65 N·s/m: the delay is named beside the power law, τ within
 /// 10 % and determined (a depth-dependent tangent stiffness is not a plain damping). With
 /// λ = 150 N·s/m the lag is a damping to the record and the delay is refused as one.

@@ -644,7 +644,8 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // A record without contact edges shows a delay in one way: as a lag
                 // of the force behind the motion that no passive material has. In
                 // contact a delay τ is, to first order, a change −κ·τ of the damping
-                // (F(t − τ) ≈ F − τ·dF/dt), so a delay is told from damping only where
+                // (F(t − τ) ≈ F − τ·dF/dt; −τ·dF_e/dδ under a nonlinear law, below),
+                // so a delay is told from damping only where
                 // the record asks for a damping below zero: the current model's
                 // damping held at its physical bound 0 and a positive τ (a negative
                 // one, a lead, is a damping the model has), by more than two standard
@@ -680,14 +681,15 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // below zero by more than two standard errors of λ (at the fitted τ,
                 // that of the combination along the valley where the two trade).
                 // (With a power law or an exponential one, the combination is the
-                // rate-weighted λ − τ·dF_e/dδ, `Fit::lag_damping_n_s_per_m`; read as
+                // rate-weighted λ − τ·dF_e/dδ, `Fit::lag_damping`, and its bar λ's
+                // standard error times the damping's mean depth shape; read as
                 // λ − κ·τ alone it was never formed without a κ, and the independent
                 // generator's sines pressed in contact with a power law and a delay
                 // were refused at 8 of 20.)
                 let lags_significantly = {
                     let se = scored.fit.damping_combination_se;
-                    match scored.fit.lag_damping_n_s_per_m(data) {
-                        Some(lag_damping) if se.is_finite() => lag_damping + 2.0 * se < 0.0,
+                    match scored.fit.lag_damping(data) {
+                        Some(lag) if se.is_finite() => lag.n_s_per_m + 2.0 * se * lag.shape < 0.0,
                         _ => false,
                     }
                 };

@@ -174,9 +174,11 @@ pub struct Fit {
     /// computed, on a record with it).
     #[serde(skip)]
     pub residual_sample_fraction: f64,
-    /// Standard error \[N·s/m\] of the damping λ with a delay τ held at its fitted value
-    /// (and NaN where λ is not reported with one): where the two trade, that of λ − κ·τ,
-    /// which the workflow's lag test reads. The reported λ's includes τ's variance.
+    /// Standard error of the damping λ (its unit: N·s/m, or N·s/m^(q+1) with a
+    /// depth-dependent damping) with a delay τ held at its fitted value (and NaN where λ
+    /// is not reported with one): where the two trade, that of λ − κ·τ. The workflow's
+    /// lag test reads it, scaled to N·s/m by [`LagDamping::shape`], as the bar of
+    /// [`Fit::lag_damping`]. The reported λ's includes τ's variance.
     #[serde(skip)]
     pub damping_combination_se: f64,
     /// Model force over the fit window \[N\].
@@ -247,8 +249,9 @@ impl Fit {
     /// fit window's counted samples in contact (δ > 0 from the model's own contact
     /// point); F_e′ a centred difference of [`Fit::elastic_force_n`] (one-sided at the
     /// surface). For a linear law it is λ − κ·τ. `None` without a damping parameter or
-    /// without a moving sample in contact.
-    pub fn lag_damping_n_s_per_m(&self, data: &Prepared) -> Option<f64> {
+    /// without a moving sample in contact. (The depth is measured from the first contact's
+    /// point: a later contacts' shift or a plastic set is not followed.)
+    pub fn lag_damping(&self, data: &Prepared) -> Option<LagDamping> {
         let lambda = self.parameter(Param::Lambda)?;
         let tau = self.parameter(Param::DelayS).unwrap_or(0.0);
         let q = self
@@ -259,17 +262,33 @@ impl Fit {
         let counted = || (self.start..data.len()).filter(|&i| !data.left_out[i] && depth(i) > 0.0);
         let deepest = counted().map(depth).fold(0.0f64, f64::max);
         let h = 1e-4 * deepest;
-        let (mut sum, mut weight) = (0.0, 0.0);
+        let (mut sum, mut shapes, mut weight) = (0.0, 0.0, 0.0);
         for i in counted() {
             let (d, v) = (depth(i), data.rate_m_per_s[i]);
             let (lo, hi) = ((d - h).max(0.0), d + h);
             let tangent = (self.elastic_force_n(hi) - self.elastic_force_n(lo)) / (hi - lo);
             let shape = q.map_or(1.0, |q| laws::power_law(d, q));
             sum += (lambda * shape - tau * tangent) * v * v;
+            shapes += shape * v * v;
             weight += v * v;
         }
-        (weight > 0.0).then(|| sum / weight)
+        (weight > 0.0).then(|| LagDamping {
+            n_s_per_m: sum / weight,
+            shape: shapes / weight,
+        })
     }
+}
+
+/// [`Fit::lag_damping`]: the plain damping that stands for a model's damping and delay in
+/// contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LagDamping {
+    /// λ_d \[N·s/m\].
+    pub n_s_per_m: f64,
+    /// The same weighted mean of the damping's depth shape s(δ) (1 for a plain damping;
+    /// δ^q \[m^q\] with a depth-dependent one): λ_d changes by it per unit of λ, so the
+    /// standard error of λ times it is λ_d's, τ held.
+    pub shape: f64,
 }
 
 /// Evaluates one model with fixed nonlinear parameters. A unilateral contact cannot
