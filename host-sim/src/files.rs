@@ -746,10 +746,9 @@ pub fn prepare_file(
         .filter(|e| best.is_none_or(|b| frontend::exponential_law_preferred(b, e)));
     fronts.extend(exponential);
     // Whether any law sees the record leave and touch the surface again and again (taps).
-    let taps = fronts.iter().any(|f| {
-        matches!(f.contact, frontend::ContactSource::Onsets { contacts }
-            if contacts >= MIN_INERTIA_ONSETS)
-    });
+    let taps = fronts
+        .iter()
+        .any(|f| f.contact.onsets() >= MIN_INERTIA_ONSETS);
     let chosen = fronts
         .into_iter()
         .min_by(|a, b| a.law.rms_n().total_cmp(&b.law.rms_n()));
@@ -782,8 +781,7 @@ pub fn prepare_file(
             .filter_map(|family| analyse_with(family, oriented, true))
             .filter(|f| {
                 f.law.mass_kg > 0.0
-                    && matches!(f.contact, frontend::ContactSource::Onsets { contacts }
-                        if contacts >= MIN_INERTIA_ONSETS)
+                    && f.contact.onsets() >= MIN_INERTIA_ONSETS
                     && INERTIA_RMS_FACTOR * f.law.rms_n() <= c.law.rms_n()
             })
             .min_by(|a, b| a.law.rms_n().total_cmp(&b.law.rms_n()));

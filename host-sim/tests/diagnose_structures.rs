@@ -545,11 +545,12 @@ fn taps_on_a_mass(
     (k, n, lambda, mass_kg): (f64, f64, f64, f64),
 ) -> Vec<(f64, f64, f64)> {
     let w = std::f64::consts::TAU * hz;
+    let depth = |t: f64| -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
     let time: Vec<f64> = (0..12_000).map(|i| i as f64 * 1e-3).collect();
     let clean: Vec<f64> = time
         .iter()
         .map(|&t| {
-            let d = -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
+            let d = depth(t);
             let (v, a) = (0.6e-3 * w * (w * t).sin(), 0.6e-3 * w * w * (w * t).cos());
             if d > 0.0 {
                 (k * d.powf(n) + lambda * v + mass_kg * a).max(0.0)
@@ -564,8 +565,7 @@ fn taps_on_a_mass(
     time.iter()
         .zip(&clean)
         .map(|(&t, &f)| {
-            let d = -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
-            let x = (d * 1e6).round() * 1e-6;
+            let x = (depth(t) * 1e6).round() * 1e-6;
             (
                 t,
                 x,

@@ -540,11 +540,12 @@ impl<'a> Problem<'a> {
         self
     }
 
-    /// The same problem with a mass m·δ̈ in contact fitted beside the law (m ≥ 0, as the
-    /// law's coefficients): a probe or tissue mass on taps, whose step at each onset and
-    /// −m·ω²·(δ − δ̄) in contact no law fits with the contact point where it is.
-    pub fn with_inertia(mut self) -> Self {
-        self.inertia = true;
+    /// The same problem with (`inertia`) or without a mass m·δ̈ in contact fitted beside
+    /// the law (m ≥ 0, as the law's coefficients): a probe or tissue mass on taps, whose
+    /// step at each onset and −m·ω²·(δ − δ̄) in contact no law fits with the contact point
+    /// where it is.
+    pub fn with_inertia(mut self, inertia: bool) -> Self {
+        self.inertia = inertia;
         self
     }
 
@@ -1337,7 +1338,7 @@ mod tests {
         let s = taps_on_a_mass(0.8);
         let problem = || Problem::new(&s, 1.0, LawFamily::HuntCrossley, OffsetTerm::Free);
         let alone = problem().fit().unwrap();
-        let fit = problem().with_inertia().fit().unwrap();
+        let fit = problem().with_inertia(true).fit().unwrap();
         assert!(fit.rss * 100.0 < alone.rss, "{fit:?} vs {alone:?}");
         assert!((fit.mass_kg / 0.8 - 1.0).abs() < 0.05, "{fit:?}");
         assert!((fit.exponent - 1.6).abs() < 0.03, "{fit:?}");
@@ -1346,7 +1347,7 @@ mod tests {
         let s = taps_on_a_mass(0.0);
         let problem = || Problem::new(&s, 1.0, LawFamily::HuntCrossley, OffsetTerm::Free);
         let alone = problem().fit().unwrap();
-        let fit = problem().with_inertia().fit().unwrap();
+        let fit = problem().with_inertia(true).fit().unwrap();
         assert!(fit.mass_kg < 0.01, "{fit:?}");
         assert!(
             (fit.contact_m - alone.contact_m).abs() < 2e-6,

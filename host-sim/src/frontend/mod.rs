@@ -96,6 +96,16 @@ pub enum ContactSource {
     Extrapolated,
 }
 
+impl ContactSource {
+    /// Contacts that start in the record (0 when extrapolated).
+    pub fn onsets(&self) -> usize {
+        match *self {
+            ContactSource::Onsets { contacts } => contacts,
+            ContactSource::Extrapolated => 0,
+        }
+    }
+}
+
 /// The front end's findings on a record.
 #[derive(Debug, Clone, Serialize)]
 pub struct FrontEnd {
@@ -317,18 +327,6 @@ pub fn analyse_oriented(
     inertia: bool,
 ) -> Result<FrontEnd, FrontEndError> {
     let samples = force_n.len();
-    // Every fit of this law, with the mass's column where asked.
-    fn problem_with(inertia: bool) -> impl Fn(&Series, f64, LawFamily, OffsetTerm) -> Problem<'_> {
-        move |series, sign, family, offset| {
-            let p = Problem::new(series, sign, family, offset);
-            if inertia {
-                p.with_inertia()
-            } else {
-                p
-            }
-        }
-    }
-    let problem = problem_with(inertia);
     let (flo, fhi) = min_max(force_n);
     if fhi.partial_cmp(&flo) != Some(std::cmp::Ordering::Greater) {
         return Err(FrontEndError::ConstantForce {
@@ -370,7 +368,8 @@ pub fn analyse_oriented(
     let mut fits: Vec<(f64, LawFit)> = signs
         .par_iter()
         .filter_map(|&s| {
-            problem(&series, s, family, free_offset)
+            Problem::new(&series, s, family, free_offset)
+                .with_inertia(inertia)
                 .fit()
                 .map(|f| (s, f))
         })
@@ -397,7 +396,8 @@ pub fn analyse_oriented(
     if misfit {
         // First the unilateral contact to convergence: a heavily damped law leaves the
         // surface for the whole retract, which one round of freeing does not see.
-        if let Some(fit) = problem(&series, sign, family, free_offset)
+        if let Some(fit) = Problem::new(&series, sign, family, free_offset)
+            .with_inertia(inertia)
             .converging_free_points()
             .fit()
             .filter(|f| !misfits(&series, sign, f, noise_n))
@@ -410,7 +410,8 @@ pub fn analyse_oriented(
     if misfit {
         let keep = loading_curve(&series, sign);
         let subset = series.subset(&keep);
-        if let Some(fit) = problem(&subset, sign, family, free_offset)
+        if let Some(fit) = Problem::new(&subset, sign, family, free_offset)
+            .with_inertia(inertia)
             .without_damping()
             .fit()
         {
@@ -437,7 +438,7 @@ pub fn analyse_oriented(
     let law = match offset_term {
         OffsetTerm::Free => free_fit,
         OffsetTerm::Fixed(_) => {
-            let problem = problem(&series, sign, family, offset_term);
+            let problem = Problem::new(&series, sign, family, offset_term).with_inertia(inertia);
             if loading_only.is_some() {
                 problem.without_damping()
             } else if converged_free_points {
