@@ -772,19 +772,34 @@ pub fn prepare_file(
             if c.misfits_contact() || (taps && c.law.rms_n() > INERTIA_RMS_FACTOR * c.noise_n) =>
         {
             let oriented = c.axis.is_decisive().then_some((c.position_sign, c.axis));
-            let with_mass = [
-                frontend::fit::LawFamily::KelvinVoigt,
-                frontend::fit::LawFamily::HuntCrossley,
-                frontend::fit::LawFamily::Exponential,
-            ]
-            .into_par_iter()
-            .filter_map(|family| analyse_with(family, oriented, true))
-            .filter(|f| {
-                f.law.mass_kg > 0.0
-                    && f.contact.onsets() >= MIN_INERTIA_ONSETS
-                    && INERTIA_RMS_FACTOR * f.law.rms_n() <= c.law.rms_n()
-            })
-            .min_by(|a, b| a.law.rms_n().total_cmp(&b.law.rms_n()));
+            // Kelvin-Voigt with the mass first: on a record no law sees tap, the other two
+            // are fitted only where it sees the onsets a mass needs (a single stroke,
+            // which most misfitting records are, has one whatever the law).
+            let linear = analyse_with(frontend::fit::LawFamily::KelvinVoigt, oriented, true);
+            let others = if taps
+                || linear
+                    .as_ref()
+                    .is_some_and(|f| f.contact.onsets() >= MIN_INERTIA_ONSETS)
+            {
+                [
+                    frontend::fit::LawFamily::HuntCrossley,
+                    frontend::fit::LawFamily::Exponential,
+                ]
+                .into_par_iter()
+                .filter_map(|family| analyse_with(family, oriented, true))
+                .collect()
+            } else {
+                Vec::new()
+            };
+            let with_mass = linear
+                .into_iter()
+                .chain(others)
+                .filter(|f| {
+                    f.law.mass_kg > 0.0
+                        && f.contact.onsets() >= MIN_INERTIA_ONSETS
+                        && INERTIA_RMS_FACTOR * f.law.rms_n() <= c.law.rms_n()
+                })
+                .min_by(|a, b| a.law.rms_n().total_cmp(&b.law.rms_n()));
             Some(with_mass.unwrap_or(c))
         }
         other => other,
