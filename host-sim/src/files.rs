@@ -783,6 +783,7 @@ pub fn prepare_file(
             {
                 [
                     frontend::fit::LawFamily::HuntCrossley,
+                    frontend::fit::LawFamily::PowerLawKelvinVoigt,
                     frontend::fit::LawFamily::Exponential,
                 ]
                 .into_par_iter()

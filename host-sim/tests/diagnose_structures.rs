@@ -584,14 +584,19 @@ fn taps_on_a_mass(
 /// and the chosen one leaves more than 1.5 noise deviations, the front end refits its
 /// laws with a mass (`files::prepare_file`), takes the one that sees the onsets and fits
 /// 1.5× better, and the diagnosis names the power law and the mass, each within 10 %.
-/// (At 6 Hz the mass's fits gain only 1.4-1.5× on three of four such parameter sets, and
-/// the record is diagnosed as before.)
+/// At 6 Hz (seeds 9107 and 9118's parameters) the force step at each onset is mostly the
+/// damping's λ·δ̇, which Hunt-Crossley's δⁿ·λ·δ̇ cannot make: with its mass the front end
+/// stayed at twice the noise, gained 1.4-1.5× (under the bar) and the record was read as
+/// an exponential law with a depth-dependent damping, until the power law with eq. 1's
+/// damping (`LawFamily::PowerLawKelvinVoigt`) joined the laws refitted with a mass.
 #[test]
 fn taps_on_a_mass_name_the_power_law_and_the_mass() {
     let dir = tempfile::tempdir().unwrap();
     for (seed, hz, truth) in [
         (9101, 7.0, (5.357e5, 1.659, 18.88, 1.166)),
         (9114, 8.0, (6.948e5, 1.713, 5.26, 0.967)),
+        (9107, 6.0, (7.338e5, 1.578, 14.56, 1.828)),
+        (9118, 6.0, (3.644e5, 1.523, 8.00, 1.498)),
     ] {
         let rows = taps_on_a_mass(seed, hz, truth);
         let d = diagnose_rows(dir.path(), &format!("taps-{seed}.csv"), &rows);

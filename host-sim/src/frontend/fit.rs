@@ -47,6 +47,12 @@ pub enum LawFamily {
     KelvinVoigt,
     /// δⁿ·(k + λ·δ̇) (eq. 3): the force rises from zero as a power law.
     HuntCrossley,
+    /// k·δⁿ + λ·δ̇: eq. 3's power-law elasticity with eq. 1's damping, which steps the
+    /// force by λ·δ̇ at the contact point as Kelvin-Voigt's does (Hunt-Crossley's
+    /// δⁿ·λ·δ̇ vanishes there). Fitted only with a mass (`files::prepare_file`): on taps
+    /// the force step at each onset is λ·δ̇ + m·δ̈, and a damping that cannot step leaves
+    /// the mass to take all of it.
+    PowerLawKelvinVoigt,
     /// m·(e^{bδ} − 1)/b + λ·δ̇ (the exponential elastic response of eqs. 11/13, eq. 1's
     /// damping): linear at the contact point (stiffness m), stiffening as e^{bδ}. A power
     /// law whose contact point lies far behind the true one mimics it (on one record both
@@ -64,7 +70,9 @@ impl LawFamily {
     pub fn has_exponent(self) -> bool {
         matches!(
             self,
-            LawFamily::HuntCrossley | LawFamily::PowerLawRelaxation
+            LawFamily::HuntCrossley
+                | LawFamily::PowerLawKelvinVoigt
+                | LawFamily::PowerLawRelaxation
         )
     }
 
@@ -94,6 +102,9 @@ impl LawFamily {
         match self {
             LawFamily::KelvinVoigt => "Kelvin-Voigt (eq. 1)",
             LawFamily::HuntCrossley => "Hunt-Crossley (eq. 3)",
+            LawFamily::PowerLawKelvinVoigt => {
+                "power-law elasticity (eq. 3's k·δⁿ) with Kelvin-Voigt damping (eq. 1's λ·δ̇)"
+            }
             LawFamily::Exponential => {
                 "exponential stiffening (eqs. 11/13) with Kelvin-Voigt damping"
             }
@@ -176,11 +187,13 @@ impl LawFit {
             .map(|&d| elastic_shape(self.family, d, self.shape()))
             .collect();
         let h = match self.family {
-            LawFamily::KelvinVoigt | LawFamily::Exponential => depth_m
-                .iter()
-                .zip(rate_m_per_s)
-                .map(|(&d, &v)| if d > 0.0 { v } else { 0.0 })
-                .collect(),
+            LawFamily::KelvinVoigt | LawFamily::Exponential | LawFamily::PowerLawKelvinVoigt => {
+                depth_m
+                    .iter()
+                    .zip(rate_m_per_s)
+                    .map(|(&d, &v)| if d > 0.0 { v } else { 0.0 })
+                    .collect()
+            }
             LawFamily::HuntCrossley => g.iter().zip(rate_m_per_s).map(|(g, v)| g * v).collect(),
             LawFamily::Zener | LawFamily::PowerLawRelaxation => {
                 relaxing_in_contact(&g, time_s, self.rate_per_s)
@@ -611,7 +624,7 @@ impl<'a> Problem<'a> {
         };
         let h = match self.family {
             _ if !self.damping && !self.family.has_relaxation() => vec![0.0; g.len()],
-            LawFamily::KelvinVoigt | LawFamily::Exponential => g
+            LawFamily::KelvinVoigt | LawFamily::Exponential | LawFamily::PowerLawKelvinVoigt => g
                 .iter()
                 .zip(&self.v)
                 .zip(&share)
@@ -1132,7 +1145,9 @@ impl<'a> Problem<'a> {
             l
         };
         let second = match self.family {
-            LawFamily::KelvinVoigt | LawFamily::Exponential => theta[2] * s / (l * r),
+            LawFamily::KelvinVoigt | LawFamily::Exponential | LawFamily::PowerLawKelvinVoigt => {
+                theta[2] * s / (l * r)
+            }
             LawFamily::HuntCrossley => theta[2] * s / (g_unit * l * r),
             LawFamily::Zener | LawFamily::PowerLawRelaxation => theta[2] * s / g_unit,
         };
@@ -1303,10 +1318,10 @@ mod tests {
     }
 
     /// (Series of) 4 s of 8 Hz taps at 1 kHz from 0.2 mm out to 1 mm deep (x = δ, the
-    /// surface at 0) into F = 3.2e5·δ^1.6 + 300·δ^1.6·δ̇ with a mass `mass_kg` moving
+    /// surface at 0) into F = 3.2e5·δ^1.6 + `damping`(δ, δ̇) with a mass `mass_kg` moving
     /// with the surface in contact (1.2 N of a 5 N tap at 0.8 kg), unilateral, over a
     /// 0.3 N offset.
-    fn taps_on_a_mass(mass_kg: f64) -> Series {
+    fn taps_on_a_mass(mass_kg: f64, damping: impl Fn(f64, f64) -> f64) -> Series {
         let w = 2.0 * std::f64::consts::PI * 8.0;
         let t: Vec<f64> = (0..4000).map(|i| i as f64 * 1e-3).collect();
         let depth = |t: f64| -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
@@ -1317,7 +1332,7 @@ mod tests {
                 let d = depth(t);
                 let v = 0.6e-3 * w * (w * t).sin();
                 let a = 0.6e-3 * w * w * (w * t).cos();
-                let law = laws::hunt_crossley(d, v, 3.2e5, 300.0, 1.6, 1.6);
+                let law = 3.2e5 * laws::power_law(d, 1.6) + damping(d, v);
                 0.3 + if d > 0.0 {
                     laws::unilateral(law + mass_kg * a)
                 } else {
@@ -1328,6 +1343,11 @@ mod tests {
         Series::new(&t, &x, &f)
     }
 
+    /// Hunt-Crossley's damping 300·δ^1.6·δ̇ (eq. 3).
+    fn hunt_crossley_damping(d: f64, v: f64) -> f64 {
+        300.0 * laws::power_law(d, 1.6) * v
+    }
+
     /// A mass on taps steps the force at each onset and adds −m·ω²·(δ − δ̄) in contact:
     /// the law alone misfits it (and, on an independent generator's such taps, put the
     /// contact point millimetres behind the record); with the mass's column the offset,
@@ -1335,7 +1355,7 @@ mod tests {
     /// stays near 0 and moves nothing.
     #[test]
     fn a_mass_on_taps_is_fitted_with_the_law_where_the_law_alone_misfits() {
-        let s = taps_on_a_mass(0.8);
+        let s = taps_on_a_mass(0.8, hunt_crossley_damping);
         let problem = || Problem::new(&s, 1.0, LawFamily::HuntCrossley, OffsetTerm::Free);
         let alone = problem().fit().unwrap();
         let fit = problem().with_inertia(true).fit().unwrap();
@@ -1344,7 +1364,7 @@ mod tests {
         assert!((fit.exponent - 1.6).abs() < 0.03, "{fit:?}");
         assert!(fit.contact_m.abs() < 5e-6, "{fit:?}");
         assert!((fit.offset_n - 0.3).abs() < 1e-2, "{fit:?}");
-        let s = taps_on_a_mass(0.0);
+        let s = taps_on_a_mass(0.0, hunt_crossley_damping);
         let problem = || Problem::new(&s, 1.0, LawFamily::HuntCrossley, OffsetTerm::Free);
         let alone = problem().fit().unwrap();
         let fit = problem().with_inertia(true).fit().unwrap();
@@ -1357,6 +1377,36 @@ mod tests {
             (fit.exponent - alone.exponent).abs() < 0.01,
             "{fit:?} vs {alone:?}"
         );
+    }
+
+    /// Taps on a power law with eq. 1's damping and a mass: the force steps by
+    /// λ·δ̇ + m·δ̈ at each onset. Hunt-Crossley's damping vanishes at the contact point, so
+    /// with a mass it cannot make the step's damping part; the power law with Kelvin-Voigt
+    /// damping recovers the exponent, the damping and the mass.
+    #[test]
+    fn a_mass_beside_a_linear_damping_is_fitted_with_the_power_law_that_steps() {
+        let s = taps_on_a_mass(0.8, |_, v| 25.0 * v);
+        let fit = |family| {
+            Problem::new(&s, 1.0, family, OffsetTerm::Free)
+                .with_inertia(true)
+                .fit()
+                .unwrap()
+        };
+        let (stepping, hunt_crossley) = (
+            fit(LawFamily::PowerLawKelvinVoigt),
+            fit(LawFamily::HuntCrossley),
+        );
+        assert!(
+            stepping.rss * 100.0 < hunt_crossley.rss,
+            "{stepping:?} vs {hunt_crossley:?}"
+        );
+        assert!((stepping.mass_kg / 0.8 - 1.0).abs() < 0.05, "{stepping:?}");
+        assert!(
+            (stepping.damping() / 25.0 - 1.0).abs() < 0.05,
+            "{stepping:?}"
+        );
+        assert!((stepping.exponent - 1.6).abs() < 0.03, "{stepping:?}");
+        assert!(stepping.contact_m.abs() < 5e-6, "{stepping:?}");
     }
 
     #[test]
