@@ -544,16 +544,32 @@ fn taps_on_a_mass(
     hz: f64,
     (k, n, lambda, mass_kg): (f64, f64, f64, f64),
 ) -> Vec<(f64, f64, f64)> {
+    taps_on_a_relaxing_mass(seed, hz, (k, n, lambda, mass_kg), None)
+}
+
+/// [`taps_on_a_mass`] with a relaxation `(c, ν)` as that generator makes it: the force in
+/// contact less c times the elastic force low-passed at ν \[1/s\] (its state following
+/// k·δⁿ, 0 out of contact, with y += (1 − e^(−ν·dt))·(F_e − y)).
+fn taps_on_a_relaxing_mass(
+    seed: u64,
+    hz: f64,
+    (k, n, lambda, mass_kg): (f64, f64, f64, f64),
+    relaxation: Option<(f64, f64)>,
+) -> Vec<(f64, f64, f64)> {
     let w = std::f64::consts::TAU * hz;
     let depth = |t: f64| -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
     let time: Vec<f64> = (0..12_000).map(|i| i as f64 * 1e-3).collect();
+    let (c, alpha) = relaxation.map_or((0.0, 0.0), |(c, nu)| (c, -(-nu * 1e-3).exp_m1()));
+    let mut low_passed = 0.0;
     let clean: Vec<f64> = time
         .iter()
         .map(|&t| {
             let d = depth(t);
             let (v, a) = (0.6e-3 * w * (w * t).sin(), 0.6e-3 * w * w * (w * t).cos());
+            let elastic = k * d.max(0.0).powf(n);
+            low_passed += alpha * (elastic - low_passed);
             if d > 0.0 {
-                (k * d.powf(n) + lambda * v + mass_kg * a).max(0.0)
+                (elastic + lambda * v + mass_kg * a - c * low_passed).max(0.0)
             } else {
                 0.0
             }
@@ -1836,4 +1852,59 @@ fn a_mass_on_taps_at_one_frequency_is_tried_and_not_on_a_sine_in_contact() {
         );
     }
     assert!(named >= 2, "the mass named first on {named} of 4 seeds");
+}
+
+/// Taps at one frequency on a relaxing Kelvin-Voigt material with a mass (the
+/// independent generator's taps seeds 9100-9105: κ, λ, m, c, ν as there, at 7 Hz; it
+/// names both in 1 of its 20 such logs). There a mass is a stiffness −m·ω² and a constant,
+/// and the relaxation's steady level another constant: only the first taps' transient
+/// and the onsets tell them apart, and the effect the workflow does not name fits the
+/// record in-sample but predicts it worse held out. Such an effect is listed as not
+/// determined (`Diagnosis::not_determined`), not left unsaid: each of the two is named
+/// or listed in at least 4 of the 6 logs (1 without the list: seed 9101 names both), nothing named is listed, and the
+/// same taps without a mass or a relaxation list nothing. Still unsaid: seed 9102 reads
+/// the relaxation as a force offset, seed 9105 the mass as a power law beside a later
+/// contact point, and neither lists the other effect.
+#[test]
+fn a_mass_beside_a_relaxation_on_taps_is_named_or_said_undetermined() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = [
+        (9100, (6624.0, 22.57, 0.7637), (0.2936, 2.325)),
+        (9101, (4829.0, 18.88, 1.166), (0.389, 1.475)),
+        (9102, (9086.0, 29.98, 1.652), (0.2059, 2.46)),
+        (9103, (6292.0, 13.49, 0.9079), (0.4589, 2.317)),
+        (9104, (7931.0, 18.07, 1.709), (0.4033, 2.346)),
+        (9105, (3333.0, 15.63, 0.8918), (0.4193, 2.879)),
+    ];
+    let mut accounted = 0;
+    let mut seen = Vec::new();
+    for (seed, (kappa, lambda, mass_kg), relaxation) in logs {
+        let rows =
+            taps_on_a_relaxing_mass(seed, 7.0, (kappa, 1.0, lambda, mass_kg), Some(relaxation));
+        let d = diagnose_rows(dir.path(), &format!("relaxing-mass-{seed}.csv"), &rows);
+        let added = d.effects_added();
+        let listed: Vec<&str> = d.not_determined.iter().map(|e| e.id()).collect();
+        assert!(
+            listed.iter().all(|e| !added.contains(e)),
+            "seed {seed}: {added:?}, not determined {listed:?}"
+        );
+        if ["inertia", "relaxation"]
+            .iter()
+            .all(|e| added.contains(e) || listed.contains(e))
+        {
+            accounted += 1;
+        }
+        seen.push((seed, added, listed));
+    }
+    assert!(accounted >= 4, "{seen:?}");
+    for seed in [9105, 9106] {
+        let rows = taps_on_a_relaxing_mass(seed, 7.0, (5000.0, 1.0, 20.0, 0.0), None);
+        let d = diagnose_rows(dir.path(), &format!("clean-{seed}.csv"), &rows);
+        assert!(
+            d.not_determined.is_empty(),
+            "seed {seed}: {:?}, not determined {:?}",
+            d.effects_added(),
+            d.not_determined
+        );
+    }
 }

@@ -184,11 +184,33 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "speed_change_with_depth": d.speed_change,
         "linear_damping_held": d.damping_held,
         "onset_damping_delta_bic": d.onset_damping_delta_bic,
+        "effects_not_determined": not_determined(d).map(|c| json!({
+            "effect": c.effect.id(),
+            "delta_bic": c.delta_bic,
+            "cv_improvement": c.cv_improvement,
+            "folds_better": c.folds_better,
+            "separating_motion": determining_motion(d, c.effect),
+        })).collect::<Vec<_>>(),
         "not_identifiable": d.unidentifiable.iter().map(|e| {
             let (why, motion) = super::unidentifiable_reason(d, *e);
             json!({"effect": e.id(), "why": why, "separating_motion": motion})
         }).collect::<Vec<_>>(),
     })
+}
+
+/// The final candidates the record does not determine (`Diagnosis::not_determined`).
+fn not_determined(d: &Diagnosis) -> impl Iterator<Item = &Candidate> {
+    d.final_candidates
+        .iter()
+        .filter(|c| d.not_determined.contains(&c.effect))
+}
+
+/// The motion that would determine `effect` beside the final model: what separates it
+/// from the effect added last ([`super::separating_motion`]; from itself on a bare
+/// baseline).
+fn determining_motion(d: &Diagnosis, effect: Effect) -> &'static str {
+    let last = d.steps.last().map_or(effect, |s| s.effect);
+    super::separating_motion(effect, last)
 }
 
 /// Depths in [`elastic_force_table`].
@@ -560,6 +582,18 @@ pub fn markdown(
         })
         .collect();
     let mut ambiguous = ambiguous;
+    for c in not_determined(d) {
+        ambiguous.push(format!(
+            "- not determined: `{}` fits the record better in-sample (ΔBIC {:+.1}) but predicts it worse held out ({:+.2} %, better on {}/{} folds): fitted on four fifths of the record, its parameters do not carry to the fifth, so the record does not determine it beside `{}` (neither named nor ruled out). What would: {}.",
+            c.effect.id(),
+            c.delta_bic,
+            100.0 * c.cv_improvement,
+            c.folds_better,
+            super::scoring::FOLDS,
+            d.final_model(),
+            determining_motion(d, c.effect)
+        ));
+    }
     for (k, e) in d.unidentifiable.iter().enumerate() {
         let (why, motion) = super::unidentifiable_reason(d, *e);
         let spread = if *e == Effect::CoulombFriction && d.one_speed_each_way_only() {
