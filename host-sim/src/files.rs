@@ -772,9 +772,9 @@ pub fn prepare_file(
             if c.misfits_contact() || (taps && c.law.rms_n() > INERTIA_RMS_FACTOR * c.noise_n) =>
         {
             let oriented = c.axis.is_decisive().then_some((c.position_sign, c.axis));
-            // Kelvin-Voigt with the mass first: on a record no law sees tap, the other two
-            // are fitted only where it sees the onsets a mass needs (a single stroke,
-            // which most misfitting records are, has one whatever the law).
+            // Kelvin-Voigt with the mass first: on a record no law sees tap, the others are
+            // fitted only where it sees the onsets a mass needs (a single stroke, which
+            // most misfitting records are, has one whatever the law).
             let linear = analyse_with(frontend::fit::LawFamily::KelvinVoigt, oriented, true);
             let others = if taps
                 || linear

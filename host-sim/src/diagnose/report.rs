@@ -184,7 +184,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
         "speed_change_with_depth": d.speed_change,
         "linear_damping_held": d.damping_held,
         "onset_damping_delta_bic": d.onset_damping_delta_bic,
-        "effects_not_determined": not_determined(d).map(|c| json!({
+        "effects_not_determined": not_determined_candidates(d).map(|c| json!({
             "effect": c.effect.id(),
             "delta_bic": c.delta_bic,
             "cv_improvement": c.cv_improvement,
@@ -199,7 +199,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
 }
 
 /// The final candidates the record does not determine (`Diagnosis::not_determined`).
-fn not_determined(d: &Diagnosis) -> impl Iterator<Item = &Candidate> {
+fn not_determined_candidates(d: &Diagnosis) -> impl Iterator<Item = &Candidate> {
     d.final_candidates
         .iter()
         .filter(|c| d.not_determined.contains(&c.effect))
@@ -582,7 +582,7 @@ pub fn markdown(
         })
         .collect();
     let mut ambiguous = ambiguous;
-    for c in not_determined(d) {
+    for c in not_determined_candidates(d) {
         ambiguous.push(format!(
             "- not determined: `{}` fits the record better in-sample (ΔBIC {:+.1}) but predicts it worse held out ({:+.2} %, better on {}/{} folds): fitted on four fifths of the record, its parameters do not carry to the fifth, so the record does not determine it beside `{}` (neither named nor ruled out). What would: {}.",
             c.effect.id(),
