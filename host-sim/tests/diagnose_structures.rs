@@ -1861,8 +1861,9 @@ fn a_mass_on_taps_at_one_frequency_is_tried_and_not_on_a_sine_in_contact() {
 /// and the onsets tell them apart, and the effect the workflow does not name fits the
 /// record in-sample but predicts it worse held out. Such an effect is listed as not
 /// determined (`Diagnosis::not_determined`), not left unsaid: each of the two is named
-/// or listed in at least 4 of the 6 logs (1 without the list: seed 9101 names both), nothing named is listed, and the
-/// same taps without a mass or a relaxation list nothing. Still unsaid: seed 9102 reads
+/// or listed in at least 4 of the 6 logs (1 without the list: seed 9101 names both),
+/// nothing named is listed, and the same taps without a mass or a relaxation list
+/// nothing. Still unsaid: seed 9102 reads
 /// the relaxation as a force offset, seed 9105 the mass as a power law beside a later
 /// contact point, and neither lists the other effect.
 #[test]
