@@ -38,6 +38,22 @@ pub struct Loaded {
 }
 
 impl Loaded {
+    /// The record with its force negated where `force_sign` is −1 (`--force-sign -1`: the
+    /// file reads compression negative), which its notes then say; unchanged otherwise.
+    pub fn with_force_sign(mut self, force_sign: Option<f64>) -> Loaded {
+        if force_sign == Some(-1.0) {
+            for record in std::iter::once(&mut self.native).chain(self.resampled.as_mut()) {
+                for f in &mut record.force_n {
+                    *f = -*f;
+                }
+            }
+            self.native.notes.push(
+                "force negated (--force-sign -1): the file reads compression negative".into(),
+            );
+        }
+        self
+    }
+
     /// The record at 1 kHz.
     pub fn uniform(&self) -> &Record {
         self.resampled.as_ref().unwrap_or(&self.native)
@@ -325,7 +341,7 @@ pub fn estimate_file(
     overrides: &Overrides,
     phases: Option<Vec<Phase>>,
 ) -> Result<FileRun> {
-    let loaded = load(path, format)?;
+    let loaded = load(path, format)?.with_force_sign(overrides.force_sign);
     let (native, record) = (&loaded.native, loaded.uniform());
     let native_rate = native_rate_hz(native);
     let front = frontend::analyse(
@@ -684,7 +700,7 @@ pub fn prepare_file(
     overrides: &Overrides,
     until_end_of: Option<Phase>,
 ) -> Result<Prepare> {
-    let loaded = load(path, format)?;
+    let loaded = load(path, format)?.with_force_sign(overrides.force_sign);
     let (native, record) = (&loaded.native, loaded.uniform());
     // Axis, offset and contact point from the whole record: the better of two memoryless
     // onsets (a jump at impact, Kelvin-Voigt; a power-law rise, Hunt-Crossley), or the

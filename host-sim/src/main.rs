@@ -100,6 +100,10 @@ enum Command {
         /// material, -1 if it decreases (default: detected from the record).
         #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
         position_sign: Option<i8>,
+        /// Sign of the force column: -1 if the file reads compression negative (the force
+        /// is then negated on reading), 1 if positive (the default; not detected).
+        #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
+        force_sign: Option<i8>,
         /// The force offset (N) to remove, if known (default: estimated from the samples
         /// out of contact; 0 when the record never leaves contact).
         #[arg(long, allow_hyphen_values = true)]
@@ -143,6 +147,10 @@ enum Command {
         /// Contact-onset threshold (N) (default: from the record's noise and range).
         #[arg(long)]
         onset_threshold_n: Option<f64>,
+        /// Sign of the force column: -1 if the file reads compression negative (the force
+        /// is then negated on reading), 1 if positive (the default; not detected).
+        #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
+        force_sign: Option<i8>,
         /// Fit only up to the end of the first segment of this phase (detected from the
         /// motion): `loading` diagnoses the first loading curve alone.
         #[arg(long, value_enum)]
@@ -209,6 +217,7 @@ fn main() -> ExitCode {
             json,
             max_steps,
             onset_threshold_n,
+            force_sign,
             until,
         }) => {
             let options = DiagnoseOptions {
@@ -218,6 +227,7 @@ fn main() -> ExitCode {
             };
             let overrides = Overrides {
                 onset_threshold_n,
+                force_sign: force_sign.map(f64::from),
                 ..Overrides::default()
             };
             diagnose_files(&files, &format, &options, &overrides, until, &out, json)
@@ -235,6 +245,7 @@ fn main() -> ExitCode {
             tare_samples,
             phase,
             position_sign,
+            force_sign,
             force_offset_n,
             memory_s,
             cold_start,
@@ -247,6 +258,7 @@ fn main() -> ExitCode {
                     position_sign: position_sign.map(f64::from),
                     force_offset_n,
                 },
+                force_sign: force_sign.map(f64::from),
                 memory_s,
                 cold_start,
                 show_progress: true,
@@ -341,7 +353,7 @@ fn simulate_model_spec(spec: &Path, motion: &Path, format: &str, out: &Path) -> 
     Ok(())
 }
 
-/// `--position-sign`: 1 or -1 (also +1).
+/// `--position-sign`, `--force-sign`: 1 or -1 (also +1).
 fn parse_sign(s: &str) -> Result<i8, String> {
     match s.trim() {
         "1" | "+1" => Ok(1),

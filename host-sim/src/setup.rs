@@ -19,6 +19,11 @@ pub struct Overrides {
     pub tare_samples: Option<u32>,
     /// Axis orientation and force offset, if known (see [`crate::frontend::Options`]).
     pub front_end: crate::frontend::Options,
+    /// Sign of the file's force column: −1 where it reads compression negative (many load
+    /// frames), so that it is negated on reading; `None` or +1: compression positive, as
+    /// read. (Not detected: a negated force makes the contact laws fail, or fit at a VAF
+    /// near 0 % on the reversed axis.)
+    pub force_sign: Option<f64>,
     /// RLS memory \[s\] (default: the record's time in contact, at least 2 s).
     pub memory_s: Option<f64>,
     /// Start the estimator from its defaults, as the firmware does, instead of from the
