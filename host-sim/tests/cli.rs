@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use estimator_core::laws;
+
 fn host_sim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))
         .args(args)
@@ -384,11 +386,7 @@ fn a_compression_negative_force_is_read_with_force_sign() {
         let w = std::f64::consts::TAU * 2.0;
         let d = -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
         let v = 0.6e-3 * w * (w * t).sin();
-        let contact = if d > 0.0 {
-            (3000.0 * d + 20.0 * v).max(0.0)
-        } else {
-            0.0
-        };
+        let contact = laws::unilateral(laws::kelvin_voigt(d, v, 3000.0, 20.0));
         let f = 0.3 + contact + 0.01 * (1.3 * i as f64).sin();
         positive.push_str(&format!("{t:.3},{d:e},{f:e}\n"));
         negative.push_str(&format!("{t:.3},{d:e},{:e}\n", -f));
