@@ -38,20 +38,75 @@ pub struct Loaded {
 }
 
 impl Loaded {
-    /// The record with its force negated where `force_sign` is −1 (`--force-sign -1`: the
-    /// file reads compression negative), which its notes then say; unchanged otherwise.
-    pub fn with_force_sign(mut self, force_sign: Option<f64>) -> Loaded {
-        if force_sign == Some(-1.0) {
-            for record in std::iter::once(&mut self.native).chain(self.resampled.as_mut()) {
-                for f in &mut record.force_n {
-                    *f = -*f;
-                }
+    /// Negates the force of the file's samples and of the 1 kHz record (exact: twice is
+    /// the identity).
+    fn negate_force(&mut self) {
+        for record in std::iter::once(&mut self.native).chain(self.resampled.as_mut()) {
+            for f in &mut record.force_n {
+                *f = -*f;
             }
-            self.native.notes.push(
-                "force negated (--force-sign -1): the file reads compression negative".into(),
-            );
         }
-        self
+    }
+
+    /// The force's sign applied to the record, and `fit` (the front end the caller takes:
+    /// one law family's, or `diagnose`'s choice among them) of the record as then read.
+    ///
+    /// `given` (`--force-sign`): −1 negates the force (the file reads compression
+    /// negative), 1 keeps it; either is noted. `None`: the record is fitted as read, and
+    /// where that fails or the fitted law's RMS residual leaves more than
+    /// [`FORCE_SIGN_CHECK_UNEXPLAINED`] of the force's variance, the negated force is
+    /// fitted too and taken, with a note, where it fits and either the force as read did
+    /// not or its RMS residual is at least [`NEGATED_FORCE_RMS_FACTOR`] times smaller. A
+    /// compression-positive record's law explains > 99 % of its variance, so it is fitted
+    /// once. A linear material that never leaves contact cannot tell the force's sign from
+    /// the axis's (−F(−δ) is the same law); such a record is read as is.
+    ///
+    /// # Errors
+    /// `fit`'s error on the record as read, where neither sign fits.
+    pub fn with_force_sign_of<T, E>(
+        &mut self,
+        given: Option<f64>,
+        fit: impl Fn(&Record) -> std::result::Result<T, E>,
+        rms_n: impl Fn(&T) -> f64,
+    ) -> std::result::Result<T, E> {
+        if let Some(sign) = given {
+            if sign < 0.0 {
+                self.negate_force();
+                self.native.notes.push(
+                    "force negated (--force-sign -1): the file reads compression negative".into(),
+                );
+            }
+            return fit(&self.native);
+        }
+        let as_read = fit(&self.native);
+        let variance = variance(&self.native.force_n);
+        let as_read_rms = as_read.as_ref().ok().map(&rms_n);
+        if as_read_rms.is_some_and(|r| r * r <= FORCE_SIGN_CHECK_UNEXPLAINED * variance) {
+            return as_read;
+        }
+        self.negate_force();
+        let negated = fit(&self.native);
+        let take = match (&negated, as_read_rms) {
+            (Ok(n), Some(r)) => NEGATED_FORCE_RMS_FACTOR * rms_n(n) <= r,
+            (Ok(_), None) => true,
+            (Err(_), _) => false,
+        };
+        if !take {
+            self.negate_force();
+            return as_read;
+        }
+        let how = match (&negated, as_read_rms) {
+            (Ok(n), Some(r)) => format!(
+                "the contact law fits the negated force with an RMS residual {:.1}× smaller",
+                r / rms_n(n).max(f64::MIN_POSITIVE)
+            ),
+            _ => "no contact law fits the force as read; one fits the negated force".into(),
+        };
+        self.native.notes.push(format!(
+            "force negated: the file reads compression negative (detected: {how}; \
+             --force-sign 1 reads it as it is)"
+        ));
+        negated
     }
 
     /// The record at 1 kHz.
@@ -73,6 +128,28 @@ impl Loaded {
             None => 1,
         }
     }
+}
+
+/// The share of the force's variance the front end's law may leave unexplained (its RMS
+/// residual squared over the variance) before [`Loaded::with_force_sign_of`] fits the
+/// negated force too: a compression-positive record's law leaves under 1 %; a negated one
+/// leaves 90-100 % or fits no law (the independent generator's negated ramps,
+/// ramp-and-holds, sines in contact and taps).
+pub const FORCE_SIGN_CHECK_UNEXPLAINED: f64 = 0.5;
+
+/// How many times smaller the negated force's RMS residual must be than the force's as
+/// read for [`Loaded::with_force_sign_of`] to take it (4× in RSS, as a decisive axis
+/// orientation is 2× in RSS, [`frontend::DECISIVE_AXIS_RSS_RATIO`], but on records the
+/// laws already misfit).
+pub const NEGATED_FORCE_RMS_FACTOR: f64 = 2.0;
+
+/// Population variance \[N²\] of `values` (0 for fewer than two).
+fn variance(values: &[f64]) -> f64 {
+    if values.len() < 2 {
+        return 0.0;
+    }
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / values.len() as f64
 }
 
 /// Reads `path` and resamples it to 1 kHz (a 1 kHz file is kept once, not copied).
@@ -341,17 +418,24 @@ pub fn estimate_file(
     overrides: &Overrides,
     phases: Option<Vec<Phase>>,
 ) -> Result<FileRun> {
-    let loaded = load(path, format)?.with_force_sign(overrides.force_sign);
+    let mut loaded = load(path, format)?;
+    let front = loaded
+        .with_force_sign_of(
+            overrides.force_sign,
+            |native| {
+                frontend::analyse(
+                    &native.time_s,
+                    &native.position_m,
+                    &native.force_n,
+                    identifiability::family_for(model),
+                    &overrides.front_end,
+                )
+            },
+            |front| front.law.rms_n(),
+        )
+        .with_context(|| format!("{}", path.display()))?;
     let (native, record) = (&loaded.native, loaded.uniform());
     let native_rate = native_rate_hz(native);
-    let front = frontend::analyse(
-        &native.time_s,
-        &native.position_m,
-        &native.force_n,
-        identifiability::family_for(model),
-        &overrides.front_end,
-    )
-    .with_context(|| format!("{}", path.display()))?;
     let depth: Vec<f64> = record
         .position_m
         .iter()
@@ -688,20 +772,14 @@ pub const INERTIA_RMS_FACTOR: f64 = frontend::EXPONENTIAL_RMS_FACTOR_WITH_ONSETS
 /// δ̈ the rate's noise, and moved its contact point by 0.7 mm.)
 pub const MIN_INERTIA_ONSETS: usize = 2;
 
-/// Reads `path` and prepares it as [`diagnose_file`] fits it: axis, offset and contact
-/// point from the front end, block means, phases (up to the end of the first
-/// `until_end_of` phase, if given).
+/// The front end [`prepare_file`] takes for the file's samples `native`: axis, offset and
+/// contact point from the whole record, by the better of the memoryless laws' fits (with
+/// a mass where they misfit or the record taps).
 ///
 /// # Errors
-/// As [`diagnose_file`], for everything before the fit.
-pub fn prepare_file(
-    path: &Path,
-    format: &str,
-    overrides: &Overrides,
-    until_end_of: Option<Phase>,
-) -> Result<Prepare> {
-    let loaded = load(path, format)?.with_force_sign(overrides.force_sign);
-    let (native, record) = (&loaded.native, loaded.uniform());
+/// A record no law fits: the Hunt-Crossley front end's error (constant force or
+/// position, no contact), else "the contact law could not be fitted".
+fn choose_front(native: &Record, overrides: &Overrides) -> Result<FrontEnd> {
     // Axis, offset and contact point from the whole record: the better of two memoryless
     // onsets (a jump at impact, Kelvin-Voigt; a power-law rise, Hunt-Crossley), or the
     // exponential law where it fits plainly better than both
@@ -821,8 +899,8 @@ pub fn prepare_file(
         }
         other => other,
     };
-    let front = match chosen {
-        Some(front) => front,
+    match chosen {
+        Some(front) => Ok(front),
         None => {
             // The same error a single family gives (constant force, no contact, …).
             frontend::analyse(
@@ -831,11 +909,33 @@ pub fn prepare_file(
                 &native.force_n,
                 frontend::fit::LawFamily::HuntCrossley,
                 &overrides.front_end,
-            )
-            .with_context(|| format!("{}", path.display()))?;
-            bail!("{}: the contact law could not be fitted", path.display());
+            )?;
+            bail!("the contact law could not be fitted");
         }
-    };
+    }
+}
+
+/// Reads `path` and prepares it as [`diagnose_file`] fits it: axis, offset and contact
+/// point from the front end, block means, phases (up to the end of the first
+/// `until_end_of` phase, if given).
+///
+/// # Errors
+/// As [`diagnose_file`], for everything before the fit.
+pub fn prepare_file(
+    path: &Path,
+    format: &str,
+    overrides: &Overrides,
+    until_end_of: Option<Phase>,
+) -> Result<Prepare> {
+    let mut loaded = load(path, format)?;
+    let front = loaded
+        .with_force_sign_of(
+            overrides.force_sign,
+            |native| choose_front(native, overrides),
+            |front| front.law.rms_n(),
+        )
+        .with_context(|| format!("{}", path.display()))?;
+    let (native, record) = (&loaded.native, loaded.uniform());
     let mut notes = native.notes.clone();
     notes.extend(front.notes.iter().cloned());
     notes.extend(front.warnings.iter().map(|w| format!("warning: {w}")));

@@ -100,10 +100,8 @@ enum Command {
         /// material, -1 if it decreases (default: detected from the record).
         #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
         position_sign: Option<i8>,
-        /// Sign of the force column: -1 if the file reads compression negative (the force
-        /// is then negated on reading), 1 if positive (the default; not detected).
-        #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
-        force_sign: Option<i8>,
+        #[command(flatten)]
+        force_sign: ForceSign,
         /// The force offset (N) to remove, if known (default: estimated from the samples
         /// out of contact; 0 when the record never leaves contact).
         #[arg(long, allow_hyphen_values = true)]
@@ -147,10 +145,8 @@ enum Command {
         /// Contact-onset threshold (N) (default: from the record's noise and range).
         #[arg(long)]
         onset_threshold_n: Option<f64>,
-        /// Sign of the force column: -1 if the file reads compression negative (the force
-        /// is then negated on reading), 1 if positive (the default; not detected).
-        #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
-        force_sign: Option<i8>,
+        #[command(flatten)]
+        force_sign: ForceSign,
         /// Fit only up to the end of the first segment of this phase (detected from the
         /// motion): `loading` diagnoses the first loading curve alone.
         #[arg(long, value_enum)]
@@ -227,7 +223,7 @@ fn main() -> ExitCode {
             };
             let overrides = Overrides {
                 onset_threshold_n,
-                force_sign: force_sign.map(f64::from),
+                force_sign: force_sign.force_sign.map(f64::from),
                 ..Overrides::default()
             };
             diagnose_files(&files, &format, &options, &overrides, until, &out, json)
@@ -258,7 +254,7 @@ fn main() -> ExitCode {
                     position_sign: position_sign.map(f64::from),
                     force_offset_n,
                 },
-                force_sign: force_sign.map(f64::from),
+                force_sign: force_sign.force_sign.map(f64::from),
                 memory_s,
                 cold_start,
                 show_progress: true,
@@ -351,6 +347,16 @@ fn simulate_model_spec(spec: &Path, motion: &Path, format: &str, out: &Path) -> 
     );
     println!("simulation: {}", path.display());
     Ok(())
+}
+
+/// `--force-sign`, shared by `estimate` and `diagnose`.
+#[derive(clap::Args, Debug)]
+struct ForceSign {
+    /// Sign of the force column: -1 if the file reads compression negative (the force
+    /// is then negated on reading), 1 if positive (default: detected, where no contact
+    /// law fits the force as read but one fits it negated; the notes say so).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
+    force_sign: Option<i8>,
 }
 
 /// `--position-sign`, `--force-sign`: 1 or -1 (also +1).

@@ -20,9 +20,10 @@ pub struct Overrides {
     /// Axis orientation and force offset, if known (see [`crate::frontend::Options`]).
     pub front_end: crate::frontend::Options,
     /// Sign of the file's force column: −1 where it reads compression negative (many load
-    /// frames), so that it is negated on reading; `None` or +1: compression positive, as
-    /// read. (Not detected: a negated force makes the contact laws fail, or fit at a VAF
-    /// near 0 % on the reversed axis.)
+    /// frames), so that it is negated on reading; +1: compression positive, as read;
+    /// `None`: detected ([`crate::files::Loaded::with_force_sign_of`]: the negated force is
+    /// taken where the force as read fits no contact law or leaves over half its variance
+    /// unexplained, and the negated one fits 2× better in RMS).
     pub force_sign: Option<f64>,
     /// RLS memory \[s\] (default: the record's time in contact, at least 2 s).
     pub memory_s: Option<f64>,

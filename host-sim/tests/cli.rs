@@ -368,12 +368,15 @@ fn a_folder_runs_as_a_batch_with_one_summary() {
     assert!(lines[3].contains(",error,"));
 }
 
-/// `--force-sign -1` reads a file whose force column is compression-negative (many load
-/// frames export it so): the same estimate and diagnosis as the compression-positive file,
-/// to the bit. Without it such a file stops with "the contact law could not be fitted"
-/// or, on taps, ends as a Kelvin-Voigt fit with a VAF near 0 % on the reversed axis.
+/// A file whose force column is compression-negative (many load frames export it so) gives
+/// the same estimate and diagnosis as the compression-positive file, to the bit, whether
+/// `--force-sign -1` says so or the sign is detected (no contact law fits the force as
+/// read; one fits it negated); the notes say which. The compression-positive file is read
+/// as it is. (Before detection such a file stopped with "the contact law could not be
+/// fitted" or, on taps, ended as a Kelvin-Voigt fit with a VAF near 0 % on the reversed
+/// axis.)
 #[test]
-fn a_compression_negative_force_is_read_with_force_sign() {
+fn a_compression_negative_force_is_negated_given_or_detected() {
     let dir = tempfile::tempdir().unwrap();
     // Kelvin-Voigt taps at 2 Hz, 0.2 mm out to 1 mm deep, a 0.3 N offset, a little
     // deterministic wobble for noise.
@@ -393,56 +396,74 @@ fn a_compression_negative_force_is_read_with_force_sign() {
     }
     let positive = write(&dir, "positive.csv", &positive);
     let negative = write(&dir, "negative.csv", &negative);
-    let run = |args: &[&str]| -> serde_json::Value {
+    // (JSON on stdout, notes on stderr.)
+    let run = |args: &[&str]| -> (serde_json::Value, String) {
         let o = host_sim(args);
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));
-        serde_json::from_slice(&o.stdout).unwrap()
+        (serde_json::from_slice(&o.stdout).unwrap(), stderr(&o))
     };
-    let (p, n) = (positive.to_str().unwrap(), negative.to_str().unwrap());
-    let estimate = |file: &str, sign: &str| {
-        run(&[
-            "estimate",
-            "--model",
-            "kelvin-voigt",
-            "--json",
-            "--force-sign",
-            sign,
-            file,
-        ])
-    };
-    let (a, b) = (estimate(p, "1"), estimate(n, "-1"));
-    assert_eq!(a["parameters"], b["parameters"]);
-    assert!(a["parameters"]["kappa"].as_f64().unwrap() > 2000.0, "{a}");
-    let out = dir.path().join("out");
-    let diagnose = |file: &str, sign: &str| {
-        let out = out.join(sign);
-        let out = out.to_str().unwrap();
-        run(&[
-            "diagnose",
-            "--json",
-            "--force-sign",
-            sign,
-            "--out",
-            out,
-            file,
-        ])
-    };
-    let (a, b) = (diagnose(p, "1"), diagnose(n, "-1"));
-    for key in ["effects_added", "final_parameters", "nrmse_percent_final"] {
-        assert_eq!(a[key], b[key], "{key}");
+    fn with_sign<'a>(args: &[&'a str], sign: Option<&'a str>) -> Vec<&'a str> {
+        let mut args = args.to_vec();
+        if let Some(sign) = sign {
+            args.extend(["--force-sign", sign]);
+        }
+        args
     }
-    // The notes say so.
+    let (p, n) = (positive.to_str().unwrap(), negative.to_str().unwrap());
+    let estimate = |file: &str, sign| {
+        let mut args = with_sign(&["estimate", "--model", "kelvin-voigt", "--json"], sign);
+        args.push(file);
+        run(&args)
+    };
+    let out = dir.path().join("out");
+    let diagnose = |file: &str, sign| {
+        let out = out.join(format!("{sign:?}"));
+        let out = out.to_str().unwrap();
+        let mut args = with_sign(&["diagnose", "--json", "--out", out], sign);
+        args.push(file);
+        run(&args).0
+    };
+    let (reference, as_read) = (estimate(p, Some("1")), estimate(p, None));
+    assert!(
+        reference.0["parameters"]["kappa"].as_f64().unwrap() > 2000.0,
+        "{reference:?}"
+    );
+    assert_eq!(reference.0["parameters"], as_read.0["parameters"]);
+    assert!(!as_read.1.contains("force negated"), "{}", as_read.1);
+    let (given, detected) = (estimate(n, Some("-1")), estimate(n, None));
+    for run in [&given, &detected] {
+        assert_eq!(reference.0["parameters"], run.0["parameters"]);
+    }
+    assert!(
+        given.1.contains("force negated (--force-sign -1)"),
+        "{}",
+        given.1
+    );
+    assert!(
+        detected
+            .1
+            .contains("force negated: the file reads compression negative (detected"),
+        "{}",
+        detected.1
+    );
+    let reference = diagnose(p, Some("1"));
+    for run in [
+        diagnose(p, None),
+        diagnose(n, Some("-1")),
+        diagnose(n, None),
+    ] {
+        for key in ["effects_added", "final_parameters", "nrmse_percent_final"] {
+            assert_eq!(reference[key], run[key], "{key}");
+        }
+    }
+    // Given as read, the negative file is read as it is (and misfits).
     let o = host_sim(&[
         "estimate",
         "--model",
         "kelvin-voigt",
         "--force-sign",
-        "-1",
+        "1",
         n,
     ]);
-    assert!(
-        stderr(&o).contains("force negated (--force-sign -1)"),
-        "{}",
-        stderr(&o)
-    );
+    assert!(!stderr(&o).contains("force negated"), "{}", stderr(&o));
 }
