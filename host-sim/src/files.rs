@@ -967,9 +967,10 @@ pub fn prepare_file(
     )
     .with_context(|| format!("{}", path.display()))?;
     let mut prepared = prepared;
-    // (Only where the resampler draws straight lines between the file's samples: a file
-    // slower than 1 kHz. A faster one is averaged into each millisecond.)
-    if loaded.samples_per_measurement() > 1 {
+    // (Where the resampler draws straight lines between the file's samples, a file slower
+    // than 1 kHz, and where it averages them, a faster one: the diagnosis models a
+    // contact's edge as the resampler made it.)
+    if loaded.resampled.is_some() {
         let t0 = record.time_s.first().copied().unwrap_or(0.0);
         prepared.native_raw_index = native.time_s.iter().map(|t| (t - t0) * 1e3).collect();
     }
