@@ -136,7 +136,9 @@ pub struct Prepared {
     ///   rate, and a Kelvin-Voigt law turns it into a force λ·Δv/2 off, tens of noise
     ///   deviations on a 100 Hz ramp; the front end's rule,
     ///   `frontend::series::rate_and_kinks`: none when kinks would be more than 5 % of the
-    ///   samples or 10 % of the moving ones), [`Prepared::kinks`] of them;
+    ///   samples or half of the moving ones; a rate whose difference ends on a kinked
+    ///   block, a mean of both sides, is the one-sided difference away from it),
+    ///   [`Prepared::kinks`] of them;
     /// - the first [`Prepared::leading_left_out`] samples of a record that begins in
     ///   contact, as long as the longest delay the catalogue searches
     ///   ([`longest_delay_s`], 50 ms at 1 kHz): a model with a force-channel delay τ
@@ -167,9 +169,10 @@ pub struct Prepared {
     /// The motion's kinks as a delayed model reads them ([`KinkStep`]), in time order.
     pub kink_steps: Vec<KinkStep>,
     /// The file's own sample times on the raw (1 kHz) index axis of a log resampled from a
-    /// file slower than 1 kHz (index = (t − t₀)·1 kHz, increasing); empty otherwise. The
-    /// resampler draws straight lines between them, and the regressors model a block at a
-    /// contact's edge the same way (`regressors::design`).
+    /// file not at 1 kHz (index = (t − t₀)·1 kHz, increasing); empty otherwise. The
+    /// resampler draws straight lines between them where they are sparser than 1 kHz and
+    /// averages them where they are denser (`record::cell_overlaps`), and the regressors
+    /// model a block at a contact's edge the same way (`regressors::design`).
     pub native_raw_index: Vec<f64>,
     /// Force with the pre-contact offset removed \[N\].
     pub force_n: Vec<f64>,

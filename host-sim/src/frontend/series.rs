@@ -35,6 +35,14 @@ pub const MAX_KINK_SHARE: f64 = 0.05;
 /// moving a count at a time makes every step one.
 pub const MAX_KINK_SHARE_OF_MOTION: f64 = 0.1;
 
+/// [`MAX_KINK_SHARE_OF_MOTION`] for the diagnosis's block means (`rate_and_kinks`): a fast
+/// ramp lasts a few blocks, and its two to six kinks are a fifth or more of the moving
+/// blocks (a 60 ms ramp at 5 ms blocks: 6 of 28), which the rule for points (a quantised
+/// encoder's every count a kink) read as no kinks at all; block means average the counts.
+/// The three blocks at a structure sweep ramp-and-hold's corners then carried 90 % of its
+/// Kelvin-Voigt baseline's RSS.
+pub const MAX_KINK_SHARE_OF_BLOCKS_IN_MOTION: f64 = 0.5;
+
 /// Largest rate noise the chosen half-width may leave, as a fraction of the record's
 /// 99.9th-percentile speed.
 pub const MAX_RATE_NOISE: f64 = 0.02;
@@ -117,15 +125,14 @@ impl Series {
             .collect();
         let sigma_x = crate::setup::noise_level(&position_m[..n]);
         let (rate, k) = native_rate(&time_s[..n], &position_m[..n], sigma_x, &starts, averaged);
-        let kink_free = off_kinks(
+        let kink_free = kink_counts(
             &time_s[..n],
             &position_m[..n],
             sigma_x,
-            &starts,
-            averaged,
-            k,
             &rate,
-        );
+            MAX_KINK_SHARE_OF_MOTION,
+        )
+        .and_then(|kinks| off_kinks(&kinks, &starts, averaged, k));
         Series {
             accel_m_per_s2: point_accel(&time, &rate),
             time_s: time,
@@ -312,24 +319,41 @@ fn quiet_enough(sigma_x: f64, h: f64, fast: f64) -> bool {
     sigma_x / (std::f64::consts::SQRT_2 * h) <= MAX_RATE_NOISE * fast
 }
 
-/// Which points to keep: `None` when no point's rate reads across a kink of the motion, or
+/// Which points to keep, given the kinks counted up to each native sample (`kinks`, from
+/// [`kink_counts`]): `None` when no point's rate reads across a kink of the motion, or
 /// when kinks would remove more than [`MAX_KINK_SHARE`] of them; else `false` for the
 /// points whose rate (the mean over the run from each start, `averaged` samples, of
-/// symmetric differences of half-width `k` samples) spans a native sample whose rate
-/// changes by more than [`KINK_FRACTION`] of the 99.9th-percentile point speed and by more
-/// than 8 deviations of that change's noise (σ_x·√6 / Δt, σ_x from second differences);
-/// `None` too when kinks are more than [`MAX_KINK_SHARE_OF_MOTION`] of the moving samples
-/// (an encoder's slow ramp: most samples do not change, the median second difference is
-/// 0, and every count is a step of the one-sample rate).
-fn off_kinks(
+/// symmetric differences of half-width `k` samples) spans a kink.
+fn off_kinks(kinks: &[usize], starts: &[usize], averaged: usize, k: usize) -> Option<Vec<bool>> {
+    let n = kinks.len() - 1;
+    // The symmetric difference at j reads x[j − k] and x[j + k]: a kink strictly between
+    // them bends it. A run from s of `averaged` samples: kinks in s − k + 1 ..= s + m + k − 2.
+    let keep: Vec<bool> = starts
+        .iter()
+        .map(|&s| {
+            let lo = (s + 1).saturating_sub(k);
+            let hi = (s + averaged + k - 1).min(n);
+            kinks[hi] == kinks[lo.min(hi)]
+        })
+        .collect();
+    let dropped = keep.iter().filter(|k| !**k).count();
+    (dropped > 0 && dropped as f64 <= MAX_KINK_SHARE * keep.len() as f64).then_some(keep)
+}
+
+/// The kinks of `position` counted up to each sample (`n + 1` counts: element i + 1 counts
+/// those at samples ≤ i): samples whose rate changes by more than [`KINK_FRACTION`] of the
+/// 99.9th-percentile point speed and by more than 8 deviations of that change's noise
+/// (σ_x·√6 / Δt, σ_x from second differences). `None` when there are none, or when they
+/// are more than `max_share_of_motion` of the moving samples ([`MAX_KINK_SHARE_OF_MOTION`]
+/// for points: an encoder's slow ramp, where most samples do not change, the median
+/// second difference is 0, and every count is a step of the one-sample rate).
+fn kink_counts(
     time_s: &[f64],
     position: &[f64],
     sigma_x: f64,
-    starts: &[usize],
-    averaged: usize,
-    k: usize,
     rate: &[f64],
-) -> Option<Vec<bool>> {
+    max_share_of_motion: f64,
+) -> Option<Vec<usize>> {
     let n = time_s.len();
     if n < 3 {
         return None;
@@ -359,29 +383,18 @@ fn off_kinks(
         };
         kinks[i + 1] = kinks[i] + usize::from(kink);
     }
-    if kinks[n] == 0 || kinks[n] as f64 > MAX_KINK_SHARE_OF_MOTION * moving as f64 {
-        return None;
-    }
-    // The symmetric difference at j reads x[j − k] and x[j + k]: a kink strictly between
-    // them bends it. A run from s of `averaged` samples: kinks in s − k + 1 ..= s + m + k − 2.
-    let keep: Vec<bool> = starts
-        .iter()
-        .map(|&s| {
-            let lo = (s + 1).saturating_sub(k);
-            let hi = (s + averaged + k - 1).min(n);
-            kinks[hi] == kinks[lo.min(hi)]
-        })
-        .collect();
-    let dropped = keep.iter().filter(|k| !**k).count();
-    (dropped > 0 && dropped as f64 <= MAX_KINK_SHARE * keep.len() as f64).then_some(keep)
+    (kinks[n] > 0 && kinks[n] as f64 <= max_share_of_motion * moving as f64).then_some(kinks)
 }
 
 /// The rate of `position` by the shortest symmetric difference of [`RATE_HALF_WINDOWS_S`]
 /// whose noise (σ_x/(√2·h), σ_x the position noise from second differences) stays below
 /// [`MAX_RATE_NOISE`] of the 99.9th-percentile speed it gives (not the 99th: the ramps of
 /// a ramp-and-hold are 1-2 % of its samples), and which samples' rate reads across a kink
-/// of the motion (`true`; by the rule of the front end's points, [`KINK_FRACTION`]: all
-/// `false` when there are none or too many to be kinks). Both of length `position.len()`.
+/// of the motion (`true`; by the front end's [`KINK_FRACTION`], with up to
+/// [`MAX_KINK_SHARE_OF_BLOCKS_IN_MOTION`] of the moving blocks kinks; all `false` when
+/// there are none or too many to be kinks). A kept rate whose difference ends on a kinked
+/// block (a mean of both sides) is the one-sided difference away from it. Both of length
+/// `position.len()`.
 ///
 /// The window's noise reads σ_x from third differences (`curvature_free_noise`): on
 /// block means of a fast oscillation the second differences are the motion's own
@@ -394,12 +407,49 @@ pub fn rate_and_kinks(time_s: &[f64], position: &[f64]) -> (Vec<f64>, Vec<bool>)
     let n = time_s.len();
     let sigma_x = crate::setup::noise_level(position);
     let starts: Vec<usize> = (0..n).collect();
-    let (rate, k) = native_rate(time_s, position, curvature_free_noise(position), &starts, 1);
-    let kinks = match off_kinks(time_s, position, sigma_x, &starts, 1, k, &rate) {
-        Some(keep) => keep.iter().map(|k| !k).collect(),
-        None => vec![false; n],
+    let (mut rate, k) = native_rate(time_s, position, curvature_free_noise(position), &starts, 1);
+    let share = MAX_KINK_SHARE_OF_BLOCKS_IN_MOTION;
+    let Some((kinks, keep)) = kink_counts(time_s, position, sigma_x, &rate, share)
+        .and_then(|kinks| off_kinks(&kinks, &starts, 1, k).map(|keep| (kinks, keep)))
+    else {
+        return (rate, vec![false; n]);
     };
-    (rate, kinks)
+    // A block in which the motion bends is a mean over both sides, on neither line: a
+    // kept difference that ends on it reads across the kink too (the block after a
+    // ramp-and-hold's ramp read 5 mm/s, a sixth of the ramp's speed, where the hold has
+    // none: 10 N of λ·v the force never had). Such a block's rate is the one-sided
+    // difference away from the kink, exact on its own side's line.
+    let kinked = |i: usize| {
+        kinks
+            .get(i + 1)
+            .zip(kinks.get(i))
+            .is_some_and(|(a, b)| a > b)
+    };
+    let mut left_out: Vec<bool> = keep.iter().map(|k| !k).collect();
+    // No kink among the samples in `range`.
+    let clear = |mut range: std::ops::Range<usize>| range.all(|i| !kinked(i));
+    for j in (0..n).filter(|j| keep[*j]) {
+        let (lo, hi) = (j.saturating_sub(k), (j + k).min(n - 1));
+        let (left, right) = (lo < j && kinked(lo), hi > j && kinked(hi));
+        match (left, right) {
+            (false, false) => {}
+            // Over the symmetric difference's span 2k where its own side has no kink
+            // (the same noise; over k alone, twice it), else over k. (The other end is
+            // past the kink: at a record's end, j itself.)
+            (true, false) if hi > j => {
+                let far = (j + 2 * k).min(n - 1);
+                let hi = if clear(j + 1..far + 1) { far } else { hi };
+                rate[j] = (position[hi] - position[j]) / (time_s[hi] - time_s[j]);
+            }
+            (false, true) if lo < j => {
+                let far = j.saturating_sub(2 * k);
+                let lo = if clear(far..j) { far } else { lo };
+                rate[j] = (position[j] - position[lo]) / (time_s[j] - time_s[lo]);
+            }
+            _ => left_out[j] = true,
+        }
+    }
+    (rate, left_out)
 }
 
 /// Robust noise level of `x` from third differences, σ = MAD(Δ³x)/0.6745/√20: like
@@ -482,6 +532,61 @@ mod tests {
         let s = Series::new(&t, &x, &f).without_kinks();
         assert_eq!(s.kinks, 0);
         assert_eq!(s.len(), 6000);
+    }
+
+    /// The diagnosis's block means of a fast ramp-and-hold (a 60 ms ramp at 30 mm/s, a
+    /// 1 s hold, the same ramp back, each corner inside a 5 ms block): a block with a
+    /// corner inside is left out, and every other reads its own side's rate exactly. Before
+    /// [`MAX_KINK_SHARE_OF_BLOCKS_IN_MOTION`] the ramp's six kinks were more than a tenth of
+    /// its 28 moving blocks and none was flagged, and the block after each corner (a mean
+    /// of both sides, an end of the next block's difference) gave a rate between the
+    /// sides, where it now reads its own side's by a one-sided difference: on a structure
+    /// sweep record those three blocks carried 90 % of a Kelvin-Voigt baseline's RSS.
+    #[test]
+    fn block_means_of_a_fast_ramp_keep_only_rates_of_one_side() {
+        let (speed, ramp_s, block) = (0.03, 0.06, 5);
+        let position = |t: f64| {
+            let up = speed * (t - 0.5023).clamp(0.0, ramp_s);
+            let down = speed * (t - 1.5623).clamp(0.0, ramp_s);
+            up - down
+        };
+        let slope = |t: f64| {
+            if (0.5023..0.5023 + ramp_s).contains(&t) {
+                speed
+            } else if (1.5623..1.5623 + ramp_s).contains(&t) {
+                -speed
+            } else {
+                0.0
+            }
+        };
+        let raw: Vec<f64> = (0..2500).map(|i| position(i as f64 * 1e-3)).collect();
+        let blocks = raw.len() / block;
+        let dt = block as f64 * 1e-3;
+        let time: Vec<f64> = (0..blocks).map(|b| b as f64 * dt).collect();
+        let means: Vec<f64> = raw
+            .chunks_exact(block)
+            .map(|c| c.iter().sum::<f64>() / block as f64)
+            .collect();
+        let (rate, kink) = rate_and_kinks(&time, &means);
+        assert!(kink.iter().any(|k| *k), "no kink flagged");
+        assert!(kink.iter().filter(|k| **k).count() <= 12, "{kink:?}");
+        for b in (0..blocks).filter(|b| !kink[*b]) {
+            // The motion's rate over this block's raw samples: one side's.
+            let sides: Vec<f64> = (b * block..(b + 1) * block)
+                .map(|i| slope(i as f64 * 1e-3))
+                .collect();
+            assert!(
+                sides.iter().all(|v| *v == sides[0]),
+                "block {b} kept across a corner: rate {}",
+                rate[b]
+            );
+            assert!(
+                (rate[b] - sides[0]).abs() < 1e-9,
+                "block {b}: {} against {}",
+                rate[b],
+                sides[0]
+            );
+        }
     }
 
     #[test]
