@@ -56,8 +56,8 @@ impl Loaded {
     /// where that fails or the fitted law's RMS residual leaves more than
     /// [`FORCE_SIGN_CHECK_UNEXPLAINED`] of the force's variance, the negated force is
     /// fitted too. It is taken, with a note, where its law fits the whole record (not the
-    /// loading curve alone: `fit_rms` gives the RMS residual \[N\] and whether it does),
-    /// leaves at most that share of the variance itself, and either the force as read fits
+    /// loading curve alone, [`FrontEnd::loading_only`]: a subset's RMS residual is not the
+    /// record's), leaves at most that share of the variance itself, and either the force as read fits
     /// no law or its RMS residual is at least [`NEGATED_FORCE_RMS_FACTOR`] times smaller.
     /// A compression-positive record's law explains > 99 % of its variance, so it is
     /// fitted once. A linear material that never leaves contact cannot tell the force's
@@ -65,12 +65,11 @@ impl Loaded {
     ///
     /// # Errors
     /// `fit`'s error on the record as read, where neither sign fits.
-    pub fn with_force_sign_of<T, E>(
+    pub fn with_force_sign_of<E>(
         &mut self,
         given: Option<f64>,
-        fit: impl Fn(&Record) -> std::result::Result<T, E>,
-        fit_rms: impl Fn(&T) -> (f64, bool),
-    ) -> std::result::Result<T, E> {
+        fit: impl Fn(&Record) -> std::result::Result<FrontEnd, E>,
+    ) -> std::result::Result<FrontEnd, E> {
         if let Some(sign) = given {
             if sign < 0.0 {
                 self.negate_force();
@@ -81,9 +80,10 @@ impl Loaded {
             return fit(&self.native);
         }
         let as_read = fit(&self.native);
-        let variance = variance(&self.native.force_n);
+        let force = &self.native.force_n;
+        let variance = crate::simulate::variance(force.iter().copied(), force.len().max(1));
         let explains = |rms: f64| rms * rms <= FORCE_SIGN_CHECK_UNEXPLAINED * variance;
-        let as_read_rms = as_read.as_ref().ok().map(|f| fit_rms(f).0);
+        let as_read_rms = as_read.as_ref().ok().map(|f| f.law.rms_n());
         if as_read_rms.is_some_and(explains) {
             return as_read;
         }
@@ -92,9 +92,9 @@ impl Loaded {
         let negated_rms = negated
             .as_ref()
             .ok()
-            .map(&fit_rms)
-            .filter(|&(rms, whole_record)| whole_record && explains(rms))
-            .map(|(rms, _)| rms);
+            .filter(|f| !f.loading_only)
+            .map(|f| f.law.rms_n())
+            .filter(|&rms| explains(rms));
         let take = match (negated_rms, as_read_rms) {
             (Some(n), Some(r)) => NEGATED_FORCE_RMS_FACTOR * n <= r,
             (Some(_), None) => true,
@@ -154,15 +154,6 @@ pub const FORCE_SIGN_CHECK_UNEXPLAINED: f64 = 0.5;
 /// orientation is 2× in RSS, [`frontend::DECISIVE_AXIS_RSS_RATIO`], but on records the
 /// laws already misfit).
 pub const NEGATED_FORCE_RMS_FACTOR: f64 = 2.0;
-
-/// Population variance \[N²\] of `values` (0 for fewer than two).
-fn variance(values: &[f64]) -> f64 {
-    if values.len() < 2 {
-        return 0.0;
-    }
-    let mean = values.iter().sum::<f64>() / values.len() as f64;
-    values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / values.len() as f64
-}
 
 /// Reads `path` and resamples it to 1 kHz (a 1 kHz file is kept once, not copied).
 ///
@@ -432,19 +423,15 @@ pub fn estimate_file(
 ) -> Result<FileRun> {
     let mut loaded = load(path, format)?;
     let front = loaded
-        .with_force_sign_of(
-            overrides.force_sign,
-            |native| {
-                frontend::analyse(
-                    &native.time_s,
-                    &native.position_m,
-                    &native.force_n,
-                    identifiability::family_for(model),
-                    &overrides.front_end,
-                )
-            },
-            |front| (front.law.rms_n(), !front.loading_only),
-        )
+        .with_force_sign_of(overrides.force_sign, |native| {
+            frontend::analyse(
+                &native.time_s,
+                &native.position_m,
+                &native.force_n,
+                identifiability::family_for(model),
+                &overrides.front_end,
+            )
+        })
         .with_context(|| format!("{}", path.display()))?;
     let (native, record) = (&loaded.native, loaded.uniform());
     let native_rate = native_rate_hz(native);
@@ -941,11 +928,9 @@ pub fn prepare_file(
 ) -> Result<Prepare> {
     let mut loaded = load(path, format)?;
     let front = loaded
-        .with_force_sign_of(
-            overrides.force_sign,
-            |native| choose_front(native, overrides),
-            |front| (front.law.rms_n(), !front.loading_only),
-        )
+        .with_force_sign_of(overrides.force_sign, |native| {
+            choose_front(native, overrides)
+        })
         .with_context(|| format!("{}", path.display()))?;
     let (native, record) = (&loaded.native, loaded.uniform());
     let mut notes = native.notes.clone();

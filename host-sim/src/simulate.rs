@@ -139,8 +139,8 @@ pub fn vaf_percent(measured: &[f64], model: &[f64]) -> Option<f64> {
 }
 
 /// The variance of the `n` values of `values`, in two passes (the mean, then the squared
-/// deviations from it).
-fn variance(values: impl Iterator<Item = f64> + Clone, n: usize) -> f64 {
+/// deviations from it) \[their unit²\].
+pub(crate) fn variance(values: impl Iterator<Item = f64> + Clone, n: usize) -> f64 {
     let mean = values.clone().sum::<f64>() / n as f64;
     values.map(|x| (x - mean) * (x - mean)).sum::<f64>() / n as f64
 }
