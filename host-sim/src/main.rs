@@ -353,8 +353,9 @@ fn simulate_model_spec(spec: &Path, motion: &Path, format: &str, out: &Path) -> 
 #[derive(clap::Args, Debug)]
 struct ForceSign {
     /// Sign of the force column: -1 if the file reads compression negative (the force
-    /// is then negated on reading), 1 if positive (default: detected, where no contact
-    /// law fits the force as read but one fits it negated; the notes say so).
+    /// is then negated on reading), 1 if positive (default: detected, where the force as
+    /// read misfits every contact law and its negation fits the whole record; the notes
+    /// say so).
     #[arg(long, allow_hyphen_values = true, value_parser = parse_sign)]
     force_sign: Option<i8>,
 }

@@ -21,9 +21,7 @@ pub struct Overrides {
     pub front_end: crate::frontend::Options,
     /// Sign of the file's force column: −1 where it reads compression negative (many load
     /// frames), so that it is negated on reading; +1: compression positive, as read;
-    /// `None`: detected ([`crate::files::Loaded::with_force_sign_of`]: the negated force is
-    /// taken where the force as read fits no contact law or leaves over half its variance
-    /// unexplained, and the negated one fits 2× better in RMS).
+    /// `None`: detected, by the rule of [`crate::files::Loaded::with_force_sign_of`].
     pub force_sign: Option<f64>,
     /// RLS memory \[s\] (default: the record's time in contact, at least 2 s).
     pub memory_s: Option<f64>,
