@@ -73,6 +73,11 @@ pub enum OffsetSource {
         stretches: usize,
         /// The longest stretch, (start, end) \[s\].
         longest_s: (f64, f64),
+        /// Native samples in contact where the material let go of the probe (a damped
+        /// material left faster than it recovers: the law's force below zero, the force
+        /// read at the offset). They pin the offset too; counted only where the points
+        /// behind the contact point are too few, or too close to it, to pin it alone.
+        released: usize,
     },
     /// `--force-offset-n`.
     Given,
@@ -668,6 +673,11 @@ struct FreeSpace {
     force_range_n: f64,
     /// How far behind the contact point the free points reach \[m\].
     reach_m: f64,
+    /// Native samples in front of the contact point where the material has let go of the
+    /// probe: the law's (unclamped) force at least 5 noise deviations below zero, as when a
+    /// damped material is left faster than it recovers, and the force read there within 3
+    /// noise deviations of the offset ([`FreeSpace::released_points`]).
+    released: usize,
     /// For a linear law (κ, no exponent): the depth at which contact would carry 5 noise
     /// deviations \[m\]; 0 for the power laws.
     visible_m: f64,
@@ -768,6 +778,15 @@ impl FreeSpace {
             block: series.block,
             force_range_n: fhi - flo,
             reach_m,
+            // (The fit's own RMS where it exceeds the noise: coloured noise reads small in
+            // second differences.)
+            released: Self::released_points(
+                series,
+                &depth,
+                &predicted,
+                fit.offset_n,
+                noise_n.max(fit.rms_n()),
+            ) * series.block,
             visible_m: if fit.family.has_exponent() {
                 0.0
             } else {
@@ -775,6 +794,37 @@ impl FreeSpace {
             },
             behind,
             unexplained,
+        }
+    }
+
+    /// Points of `series` in front of the contact point (`depth_m` > 0) where the law has
+    /// let go (its force `predicted_n`, offset excluded, unclamped, at least 5 deviations
+    /// `deviation_n` below zero), counted only where the force read there is flat at
+    /// `offset_n` rather than following the law (its RMS about the offset within 0.3 of
+    /// the law's RMS there). Such points pin the offset as free space does, whatever the
+    /// contact point: moving the contact point back by s and the offset down by κ·s (the
+    /// trade a linear law allows in contact) would read them κ·s low. Where the fit has
+    /// instead taken that trade (a record that never leaves contact, its contact point too
+    /// deep), the force at the points the law lets go still follows the law: 0.
+    fn released_points(
+        series: &Series,
+        depth_m: &[f64],
+        predicted_n: &[f64],
+        offset_n: f64,
+        deviation_n: f64,
+    ) -> usize {
+        let (mut count, mut ss_force, mut ss_law) = (0usize, 0.0, 0.0);
+        for ((d, p), f) in depth_m.iter().zip(predicted_n).zip(&series.force_n) {
+            if *d > 0.0 && *p <= -5.0 * deviation_n {
+                count += 1;
+                ss_force += (f - offset_n) * (f - offset_n);
+                ss_law += p * p;
+            }
+        }
+        if count > 0 && ss_force <= 0.09 * ss_law {
+            count
+        } else {
+            0
         }
     }
 
@@ -807,14 +857,18 @@ impl FreeSpace {
 
     /// The offset source, or why the record does not determine the offset.
     fn verdict(&self) -> Result<OffsetSource, String> {
-        if self.samples < MIN_FREE_SAMPLES.max(self.block) {
+        let min_samples = MIN_FREE_SAMPLES.max(self.block);
+        // Released points pin the offset where too few points lie behind the contact
+        // point, or too close to it, to pin it there.
+        let released = self.released >= min_samples;
+        if self.samples < min_samples && !released {
             return Err(format!(
                 "only {} samples lie behind the contact point (the record never leaves contact), \
                  so an offset and a contact point trade against each other",
                 self.samples
             ));
         }
-        if self.reach_m < self.visible_m {
+        if self.reach_m < self.visible_m && !released {
             // A linear law's offset and contact point trade exactly against each other:
             // only points far enough behind the contact point that contact there would
             // show tell free space from a light touch.
@@ -841,10 +895,12 @@ impl FreeSpace {
             .copied()
             .max_by(|a, b| (a.1 - a.0).total_cmp(&(b.1 - b.0)))
             .unwrap_or((0.0, 0.0));
+        let behind_pins = self.samples >= min_samples && self.reach_m >= self.visible_m;
         Ok(OffsetSource::FreeSpace {
             samples: self.samples,
             stretches: self.stretches.len(),
             longest_s: longest,
+            released: if behind_pins { 0 } else { self.released },
         })
     }
 }
@@ -901,15 +957,24 @@ fn describe(
                 samples,
                 stretches,
                 longest_s,
+                released,
             },
             _,
         ) => front.notes.push(format!(
             "force offset {:.4e} N from the {samples} samples ({:.1} % of the record) behind the contact \
-             point, in {stretches} stretch(es), the longest {:.3}-{:.3} s",
+             point, in {stretches} stretch(es), the longest {:.3}-{:.3} s{}",
             front.force_offset_n,
             100.0 * *samples as f64 / total as f64,
             longest_s.0,
-            longest_s.1
+            longest_s.1,
+            match released {
+                0 => String::new(),
+                r => format!(
+                    ", and the {r} samples in contact where the material let go of the probe (the law's \
+                     force below zero, the force read at the offset: a fast retract): too few points lie \
+                     far enough behind the contact point to pin it alone"
+                ),
+            }
         )),
         (OffsetSource::Given, verdict) => front.notes.push(format!(
             "force offset {:.4e} N (given){}",
