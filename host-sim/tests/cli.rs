@@ -467,3 +467,47 @@ fn a_compression_negative_force_is_negated_given_or_detected() {
     ]);
     assert!(!stderr(&o).contains("force negated"), "{}", stderr(&o));
 }
+
+/// `estimate` and `diagnose` report the contact position on the file's own axis, also
+/// where the position decreases into the material: the same point, the same sign, and
+/// `diagnose --json` says which way the axis points (`"position_sign"`). (Before
+/// 2026-11-27 `diagnose` gave the penetration axis's value, the negative of the file's, on
+/// such a file: an independent generator's 13 reversed clean files showed it.)
+#[test]
+fn estimate_and_diagnose_report_the_contact_position_on_the_file_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    // Kelvin-Voigt taps at 2 Hz, the surface at x = 0.0338 m, the probe moving to lower x
+    // into the material, 0.2 mm out to 1 mm deep.
+    let surface = 0.0338;
+    let mut text = String::from("time_s,position_m,force_n\n");
+    for i in 0..4000 {
+        let t = i as f64 * 1e-3;
+        let w = std::f64::consts::TAU * 2.0;
+        let d = -0.2e-3 + 1.2e-3 * (0.5 - 0.5 * (w * t).cos());
+        let v = 0.6e-3 * w * (w * t).sin();
+        let f = 0.3
+            + laws::unilateral(laws::kelvin_voigt(d, v, 3000.0, 20.0))
+            + 0.01 * (1.3 * i as f64).sin();
+        text.push_str(&format!("{t:.3},{:e},{f:e}\n", surface - d));
+    }
+    let file = write(&dir, "reversed.csv", &text);
+    let file = file.to_str().unwrap();
+    let out = dir.path().join("out");
+    let json = |args: &[&str]| -> serde_json::Value {
+        let o = host_sim(args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let estimate = json(&["estimate", "--model", "kelvin-voigt", "--json", file]);
+    let diagnose = json(&["diagnose", "--json", "--out", out.to_str().unwrap(), file]);
+    let estimated = estimate["parameters"]["contact_position_m"]
+        .as_f64()
+        .unwrap();
+    let diagnosed = diagnose["final_parameters"]["contact_position_m"]
+        .as_f64()
+        .unwrap();
+    assert_eq!(diagnose["position_sign"].as_f64(), Some(-1.0));
+    for found in [estimated, diagnosed] {
+        assert!((found - surface).abs() < 20e-6, "{found} against {surface}");
+    }
+}

@@ -18,11 +18,14 @@ use crate::plots::{self, Chart, Series, PALETTE};
 /// Parameters of a fit as a JSON object `{name: value}` (SI units, names as in the
 /// report) and their standard errors as a second object (`null` where not estimated or
 /// where the record did not determine the parameter: its reason says what it did).
-fn parameters_json(fit: &Fit) -> (Value, Value) {
+fn parameters_json(fit: &Fit, position_sign: f64) -> (Value, Value) {
     let mut values = Map::new();
     let mut errors = Map::new();
     for p in &fit.parameters {
-        values.insert(p.param.id().into(), json!(p.value));
+        values.insert(
+            p.param.id().into(),
+            json!(on_file_axis(p.param, p.value, position_sign)),
+        );
         errors.insert(
             p.param.id().into(),
             if p.standard_error.is_finite() && p.determination == Determination::Determined {
@@ -33,6 +36,18 @@ fn parameters_json(fit: &Fit) -> (Value, Value) {
         );
     }
     (Value::Object(values), Value::Object(errors))
+}
+
+/// A parameter's value as reported: the contact position on the file's own position axis
+/// (as `estimate` reports it; the fit works on the penetration axis, the file's position
+/// times `position_sign`), every other parameter as fitted (a contact shift is along the
+/// penetration).
+fn on_file_axis(param: Param, value: f64, position_sign: f64) -> f64 {
+    if param == Param::ContactPositionM {
+        position_sign * value
+    } else {
+        value
+    }
 }
 
 /// Why the record did not determine a parameter ([`Determination`]), or `None` where it did.
@@ -126,12 +141,14 @@ fn undetermined_json(fit: &Fit) -> Value {
 /// record cannot tell apart from it (`"indistinguishable_from"`), and the parameters its
 /// record did not determine (`"undetermined"`, `{name: why}`, their standard errors
 /// `null`; `"final_undetermined"` for the final model). `file` names the input.
+/// `contact_position_m` is on the file's position axis (`"position_sign"`: +1 where the
+/// position increases into the material), as `estimate` reports it.
 pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
     let steps: Vec<Value> = d
         .steps
         .iter()
         .map(|s| {
-            let (parameters, uncertainties) = parameters_json(&s.after);
+            let (parameters, uncertainties) = parameters_json(&s.after, data.position_sign);
             json!({
                 "effect": s.effect.id(),
                 "replaces": s.replaces.map(|e| e.id()),
@@ -154,9 +171,10 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
             })
         })
         .collect();
-    let (parameters, uncertainties) = parameters_json(&d.final_fit);
+    let (parameters, uncertainties) = parameters_json(&d.final_fit, data.position_sign);
     json!({
         "file": file,
+        "position_sign": data.position_sign,
         "baseline": d.baseline.name(),
         "nrmse_percent_baseline": d.baseline_fit.nrmse_percent,
         "vaf_percent_baseline": d.baseline_fit.vaf_percent,
@@ -236,11 +254,12 @@ pub fn elastic_force_table(d: &Diagnosis, data: &Prepared) -> Value {
 
 /// Parameters as `name = value ± se` (SI; value only where no error was estimated, and
 /// why where the record did not determine it).
-fn parameters_text(fit: &Fit) -> String {
+fn parameters_text(fit: &Fit, position_sign: f64) -> String {
     fit.parameters
         .iter()
         .map(|p| {
-            let (n, v, se) = (p.param.id(), p.value, p.standard_error);
+            let (n, se) = (p.param.id(), p.standard_error);
+            let v = on_file_axis(p.param, p.value, position_sign);
             if let Some(why) = undetermined_reason(fit, p) {
                 format!("{n} = {v:.4e} (not determined: {why})")
             } else if se.is_finite() && se > 0.0 {
@@ -521,7 +540,7 @@ pub fn markdown(
         out,
         "| 0 | baseline `{}` | {} | {:.3} | {:.0} |",
         d.baseline.name(),
-        parameters_text(&d.baseline_fit),
+        parameters_text(&d.baseline_fit, data.position_sign),
         d.baseline_fit.nrmse_percent,
         d.baseline_fit.bic
     );
@@ -535,7 +554,7 @@ pub fn markdown(
                 .map_or(String::new(), |e| format!(" (replaces `{}`)", e.id())),
             s.jointly_with
                 .map_or(String::new(), |e| format!(" (jointly with `{}`)", e.id())),
-            parameters_text(&s.after),
+            parameters_text(&s.after, data.position_sign),
             s.before.nrmse_percent,
             s.after.nrmse_percent,
             s.before.bic,
@@ -553,7 +572,7 @@ pub fn markdown(
             r.kept.folds_better,
             super::scoring::FOLDS,
             r.reason(),
-            parameters_text(&r.after),
+            parameters_text(&r.after, data.position_sign),
             r.after.nrmse_percent,
             r.after.bic
         );
