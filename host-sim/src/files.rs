@@ -529,9 +529,12 @@ pub fn estimate_file(
     }
     if let frontend::OffsetSource::NotIdentifiable { .. } = front.offset {
         // Everything measured from a held offset carries its error (after the hold
-        // decision: the damping is held for lack of excitation, not for the offset).
+        // decision: the damping is held for lack of excitation, not for the offset), but
+        // a linear law's κ and λ where it pushes throughout: the offset trades with the
+        // contact point alone there.
+        let linear_trade = model == ModelKind::KelvinVoigt && front.linear_law_pushes_throughout();
         for v in &mut verdicts {
-            if v.identifiable {
+            if v.identifiable && !linear_trade {
                 v.identifiable = false;
                 v.reason = format!(
                     "it depends on the force offset, which the record does not determine (held at {:.4e} N; \

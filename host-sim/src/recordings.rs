@@ -691,8 +691,11 @@ impl Score {
                 }
             }
         };
+        // A power law's k and n depend on the offset; a linear law's κ does not where it
+        // pushes throughout (its offset trades with the contact point alone:
+        // `FrontEnd::linear_law_pushes_throughout`), and is judged by its tolerance.
         if !self.offset_determined {
-            for name in [stiffness.0, "n"] {
+            for name in ["k", "n"] {
                 if self.identifiable.contains_key(name) && self.is_identifiable(name) {
                     out.push(format!(
                         "offset not determined but {name} reported identifiable"

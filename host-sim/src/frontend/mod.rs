@@ -194,6 +194,17 @@ impl FrontEnd {
         law_along(&self.series, self.position_sign, &self.law)
     }
 
+    /// The fitted law is linear (Kelvin-Voigt, eq. 1) and pushes at every point of the
+    /// record (in front of the contact point, its force above zero): then its offset and
+    /// contact point trade exactly (only F0 − κ·x_c enters the force), and κ and λ do not
+    /// depend on either, whether or not the record determines the offset.
+    pub fn linear_law_pushes_throughout(&self) -> bool {
+        self.law.family == LawFamily::KelvinVoigt && {
+            let (depth, _, force) = self.law_along();
+            depth.iter().zip(&force).all(|(d, f)| *d > 0.0 && *f > 0.0)
+        }
+    }
+
     /// The law misses the contact by more than 5 noise deviations and 2 % of the force
     /// range (RMS over the points in contact), as [`analyse`] judges it before fitting the
     /// loading curve alone.
@@ -430,30 +441,40 @@ pub fn analyse_oriented(
 
     let free = FreeSpace::of(&series, sign, &free_fit, noise_n);
     let offset_verdict = free.verdict();
-    let (offset_term, offset) = match (options.force_offset_n, &offset_verdict) {
-        (Some(given), _) => (OffsetTerm::Fixed(given), OffsetSource::Given),
-        (None, Ok(source)) => (OffsetTerm::Free, source.clone()),
+    // The offsets tried: the given one, the free fit's, or where the record does not
+    // determine it, the holds [`held_offsets_n`] offers (the one the law fits best).
+    let (holds, offset) = match (options.force_offset_n, &offset_verdict) {
+        (Some(given), _) => (vec![given], OffsetSource::Given),
+        (None, Ok(source)) => (Vec::new(), source.clone()),
         (None, Err(reason)) => (
-            OffsetTerm::Fixed(0.0),
+            held_offsets_n(&series, family),
             OffsetSource::NotIdentifiable {
                 reason: reason.clone(),
             },
         ),
     };
-    let law = match offset_term {
-        OffsetTerm::Free => free_fit,
-        OffsetTerm::Fixed(_) => {
-            let problem = Problem::new(&series, sign, family, offset_term).with_inertia(inertia);
-            if loading_only.is_some() {
-                problem.without_damping()
-            } else if converged_free_points {
-                problem.converging_free_points()
-            } else {
-                problem
-            }
-            .fit()
+    let law = if holds.is_empty() {
+        free_fit
+    } else {
+        let fits: Vec<LawFit> = holds
+            .iter()
+            .filter_map(|&held| {
+                let problem = Problem::new(&series, sign, family, OffsetTerm::Fixed(held))
+                    .with_inertia(inertia);
+                if loading_only.is_some() {
+                    problem.without_damping()
+                } else if converged_free_points {
+                    problem.converging_free_points()
+                } else {
+                    problem
+                }
+                .fit()
+            })
+            .collect();
+        // (The first of equal fits: 0 before the record's lowest level.)
+        fits.into_iter()
+            .reduce(|best, fit| if fit.rss < best.rss { fit } else { best })
             .ok_or(FrontEndError::FitFailed)?
-        }
     };
     let final_free = FreeSpace::of(&series, sign, &law, noise_n);
     let contacts = final_free.onsets;
@@ -479,7 +500,7 @@ pub fn analyse_oriented(
         notes: Vec::new(),
         warnings: Vec::new(),
     };
-    describe(&mut front, family, &offset_verdict, options, decided_by);
+    describe(&mut front, family, &offset_verdict, decided_by);
     if let Some((loading_rms, other_rms)) = loading_only {
         front.notes.push(format!(
             "the law fits the loading curve (residual {loading_rms:.3e} N) but not the rest of the contact \
@@ -533,6 +554,29 @@ enum AxisDecidedBy {
 fn loading_speed(series: &Series) -> f64 {
     let mut speeds: Vec<f64> = series.rate_m_per_s.iter().map(|v| v.abs()).collect();
     crate::phases::loading_speed_of(&mut speeds)
+}
+
+/// The offsets \[N\] a record that does not determine its own may be held at, the one
+/// its law fits best taken: 0 (a load cell zeroed before the test), and where the force
+/// falls below 0, its lowest point's (a contact cannot push below its offset). A record
+/// whose force is negative throughout (a tare of −38 N under 34 N of contact force,
+/// never out of contact: an independent generator's record) fits no law held at 0, and
+/// was then read as a compression-negative file and negated; one that dips below 0 puts
+/// its shallowest points out of contact held there, which moves the contact point (and
+/// with it a linear law's κ: 7 % on a never-leaves-contact record of the structure sweep)
+/// to meet them. But a record may fall below its offset where the material pulls (an AFM
+/// tip's adhesion on the retract: the shipped stress-relaxation record's lowest point,
+/// −216 nN, is 100 nN below its pause), hence the choice by fit, 0 first on a tie; and a
+/// relaxation law, whose front end lets the law pull where the record pulls (adhesion
+/// after a relaxed hold), keeps 0: there the lowest point is the pull's (held there, the
+/// shipped record's Hammerstein fit took γ2 = 5.0 at 3.1 % against 1.88 at 2.3 %).
+fn held_offsets_n(series: &Series, family: LawFamily) -> Vec<f64> {
+    let lowest = series.force_n.iter().copied().fold(0.0, f64::min);
+    if lowest < 0.0 && !family.has_relaxation() {
+        vec![0.0, lowest]
+    } else {
+        vec![0.0]
+    }
 }
 
 /// The loading curve and the quiet points around it: points moving in faster than the
@@ -811,13 +855,21 @@ impl FreeSpace {
             reach_m,
             // (The fit's own RMS where it exceeds the noise: coloured noise reads small in
             // second differences.)
-            released: Self::released_points(
-                series,
-                &depth,
-                &predicted,
-                fit.offset_n,
-                noise_n.max(fit.rms_n()),
-            ) * series.block,
+            // (Memoryless laws only: a relaxation law's state lets go on every retract
+            // from a relaxed hold, where the record's own force falls through adhesion
+            // and the retract; the AFM stress-relaxation record's 478 such samples took
+            // its offset to −205 nN against the pause's −117.)
+            released: if fit.family.has_relaxation() {
+                0
+            } else {
+                Self::released_points(
+                    series,
+                    &depth,
+                    &predicted,
+                    fit.offset_n,
+                    noise_n.max(fit.rms_n()),
+                ) * series.block
+            },
             visible_m: if fit.family.has_exponent() {
                 0.0
             } else {
@@ -941,7 +993,6 @@ fn describe(
     front: &mut FrontEnd,
     family: LawFamily,
     offset_verdict: &Result<OffsetSource, String>,
-    options: &Options,
     decided_by: Option<AxisDecidedBy>,
 ) {
     let direction = if front.position_sign > 0.0 {
@@ -1016,13 +1067,19 @@ fn describe(
             }
         )),
         (OffsetSource::NotIdentifiable { reason }, _) => {
+            let below_zero = if front.force_offset_n < 0.0 {
+                " (the force's lowest level: the record's force falls below 0, and a contact \
+                 cannot push below its offset)"
+            } else {
+                ""
+            };
             front.notes.push(format!(
-                "force offset held at {:.4e} N (--force-offset-n sets it)",
-                options.force_offset_n.unwrap_or(0.0)
+                "force offset held at {:.4e} N{below_zero} (--force-offset-n sets it)",
+                front.force_offset_n
             ));
             front.warnings.push(format!(
                 "the force offset is not identifiable: {reason}; estimated with it held at {:.4e} N",
-                options.force_offset_n.unwrap_or(0.0)
+                front.force_offset_n
             ));
         }
     }
@@ -1162,6 +1219,49 @@ mod tests {
         assert_eq!(front.position_sign, -1.0);
         assert!(front.offset_identifiable(), "{:?}", front.offset);
         assert!(front.contact.onsets() >= 10, "{:?}", front.contact);
+    }
+
+    /// A Kelvin-Voigt record that never leaves contact under a load cell reading −38 N
+    /// at rest: its force is negative throughout. Held at 0, no law fitted it (the front
+    /// end failed, and the file was then read as compression-negative and negated); held
+    /// at its lowest force it fits, the offset is flagged, and the linear law, pushing
+    /// throughout, keeps κ and λ (its offset trades with the contact point alone).
+    #[test]
+    fn a_record_below_zero_throughout_is_held_at_its_lowest_force() {
+        let w = 2.0 * std::f64::consts::PI * 0.4;
+        let depth = |t: f64| 3.7e-3 + 2.6e-3 * (w * t).sin();
+        let t: Vec<f64> = (0..10_000).map(|i| i as f64 * 1e-3).collect();
+        let x: Vec<f64> = t.iter().map(|&t| 0.01 + depth(t)).collect();
+        let f: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let (d, v) = (depth(t), (depth(t + 1e-6) - depth(t - 1e-6)) / 2e-6);
+                -38.0
+                    + laws::unilateral(laws::kelvin_voigt(d, v, 5600.0, 400.0))
+                    + 0.02 * (1.3 * i as f64).sin()
+            })
+            .collect();
+        let front = analyse(&t, &x, &f, LawFamily::KelvinVoigt, &Options::default()).unwrap();
+        assert_eq!(front.position_sign, 1.0);
+        assert!(!front.offset_identifiable(), "{:?}", front.offset);
+        let lowest = f.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(
+            (front.force_offset_n - lowest).abs() < 0.05,
+            "{} against {lowest}",
+            front.force_offset_n
+        );
+        assert!(front.linear_law_pushes_throughout());
+        assert!(
+            (front.law.stiffness / 5600.0 - 1.0).abs() < 0.005,
+            "{:?}",
+            front.law
+        );
+        assert!(
+            (front.law.second / 400.0 - 1.0).abs() < 0.02,
+            "{:?}",
+            front.law
+        );
     }
 
     /// A steep power law (n = 2) under 0.45 N of noise rises within 3 noise deviations of
