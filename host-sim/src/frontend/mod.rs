@@ -789,52 +789,59 @@ impl FreeSpace {
             .copied()
             .filter(|&i| reach(i) >= 0.2 * reach_m)
             .collect();
-        // Each point's free stretch: the force is compared with the position within each
-        // stretch, about the stretch's own means. A load cell's zero that drifts in time
-        // sets each stretch at its own level, and the probe hovers at another height each
-        // time (an operator's lift-offs), so pooled across stretches the levels would
-        // read as a slope on the position (an independent generator's teleoperation
-        // record with a 0.03 N/s drift: 76 N/m "behind the contact point", the offset held
-        // at 0 and one contact seen of eight); contact force follows the position within
-        // a stretch.
-        let mut stretch_of = vec![0usize; behind.len()];
-        let mut id = 0;
-        for i in 0..behind.len() {
-            if behind[i] && i > 0 && !behind[i - 1] {
-                id += 1;
+        // Where the free points lie in several stretches, the force is compared with the
+        // position with a trend in time beside it (both fitted, the position's slope
+        // judged): a load cell's zero that drifts in time sets each stretch at its own
+        // level, and where the probe hovers nearer the surface each time (an operator's
+        // lift-offs) the levels read as a slope on the position alone (an independent
+        // generator's teleoperation record with a 0.03 N/s drift: 76 N/m "behind the
+        // contact point", the offset held at 0, one contact seen of eight). (Not within
+        // each stretch alone: there, the light contact a misfit law leaves at every
+        // approach and retract is the only motion, and a relaxing, plastic record's five
+        // stretches of free space read 611 N/m.) In one stretch, position and time move
+        // together on an approach, and the position alone is judged, as a record that
+        // never leaves contact is.
+        let stretches_in_trend = {
+            let mut count = 0;
+            let mut previous = None;
+            for &i in &trend {
+                if previous.is_none_or(|p: usize| (p + 1..i).any(|j| !behind[j])) {
+                    count += 1;
+                }
+                previous = Some(i);
             }
-            stretch_of[i] = id;
-        }
-        let slope = (trend.len() >= 3).then(|| {
+            count
+        };
+        let with_time = stretches_in_trend >= 2;
+        let slope = (trend.len() >= 3 + usize::from(with_time)).then(|| {
             let u: Vec<f64> = trend.iter().map(|&i| sign * series.position_m[i]).collect();
             let f: Vec<f64> = trend.iter().map(|&i| unexplained[i]).collect();
+            let t: Vec<f64> = trend.iter().map(|&i| series.time_s[i]).collect();
             let n = u.len() as f64;
-            let mut sums: std::collections::BTreeMap<usize, (f64, f64, f64)> =
-                std::collections::BTreeMap::new();
-            for (k, &i) in trend.iter().enumerate() {
-                let e = sums.entry(stretch_of[i]).or_default();
-                *e = (e.0 + u[k], e.1 + f[k], e.2 + 1.0);
-            }
-            let mean = |k: usize| {
-                let (su, sf, c) = sums[&stretch_of[trend[k]]];
-                (su / c, sf / c)
+            // Each of u and f less its least-squares line in t (or its mean), then the
+            // slope of one on the other (Frisch-Waugh).
+            let detrend = |y: &[f64]| -> Vec<f64> {
+                let my = y.iter().sum::<f64>() / n;
+                if !with_time {
+                    return y.iter().map(|v| v - my).collect();
+                }
+                let mt = t.iter().sum::<f64>() / n;
+                let stt: f64 = t.iter().map(|v| (v - mt) * (v - mt)).sum();
+                let sty: f64 = t.iter().zip(y).map(|(a, b)| (a - mt) * (b - my)).sum();
+                let c = if stt > 0.0 { sty / stt } else { 0.0 };
+                t.iter()
+                    .zip(y)
+                    .map(|(a, b)| b - my - c * (a - mt))
+                    .collect()
             };
-            let (mut sxx, mut sxf) = (0.0, 0.0);
-            for k in 0..trend.len() {
-                let (mu, mf) = mean(k);
-                sxx += (u[k] - mu) * (u[k] - mu);
-                sxf += (u[k] - mu) * (f[k] - mf);
-            }
+            let (du, df) = (detrend(&u), detrend(&f));
+            let sxx: f64 = du.iter().map(|x| x * x).sum();
+            let sxf: f64 = du.iter().zip(&df).map(|(x, y)| x * y).sum();
             let b = if sxx > 0.0 { sxf / sxx } else { 0.0 };
-            let r: Vec<f64> = (0..trend.len())
-                .map(|k| {
-                    let (mu, mf) = mean(k);
-                    f[k] - mf - b * (u[k] - mu)
-                })
-                .collect();
+            let r: Vec<f64> = du.iter().zip(&df).map(|(x, y)| y - b * x).collect();
             let rho = lag1_autocorrelation(&r).clamp(0.0, 0.999);
             let n_eff = (n * (1.0 - rho) / (1.0 + rho)).max(3.0);
-            let dof = (n - sums.len() as f64 - 1.0).max(1.0);
+            let dof = (n - if with_time { 3.0 } else { 2.0 }).max(1.0);
             let s2 = r.iter().map(|e| e * e).sum::<f64>() / dof;
             let se = if sxx > 0.0 {
                 (s2 / sxx * n / n_eff).sqrt()
@@ -1189,7 +1196,8 @@ mod tests {
     /// nearer the surface than the last, and the load cell's zero drifts by 0.03 N/s:
     /// pooled across the free stretches, the drift read as the force following the
     /// position behind the contact point (124 N/m), and the record was taken to never
-    /// leave contact (offset held at 0). Within each stretch the force is flat.
+    /// leave contact (offset held at 0). With a trend in time beside it, the position's
+    /// slope is nil.
     #[test]
     fn a_drifting_zero_under_hovers_ever_nearer_the_surface_is_free_space() {
         let hover = |t: f64| 3.0e-3 - 2.5e-3 * t / 12.0;
