@@ -556,6 +556,46 @@ fn loading_speed(series: &Series) -> f64 {
     crate::phases::loading_speed_of(&mut speeds)
 }
 
+/// The slope of `f` on `u` about the means of each group (`groups`: a group index per
+/// point) and its standard error (N/N_eff from the residual's lag-1 autocorrelation).
+fn slope_about_means(u: &[f64], f: &[f64], groups: &[usize]) -> Slope {
+    let n = u.len() as f64;
+    let mut sums: std::collections::BTreeMap<usize, (f64, f64, f64)> = Default::default();
+    for ((u, f), g) in u.iter().zip(f).zip(groups) {
+        let e = sums.entry(*g).or_default();
+        *e = (e.0 + u, e.1 + f, e.2 + 1.0);
+    }
+    let mean = |g: usize| {
+        let (su, sf, c) = sums[&g];
+        (su / c, sf / c)
+    };
+    let (mut sxx, mut sxf) = (0.0, 0.0);
+    for ((u, f), g) in u.iter().zip(f).zip(groups) {
+        let (mu, mf) = mean(*g);
+        sxx += (u - mu) * (u - mu);
+        sxf += (u - mu) * (f - mf);
+    }
+    let b = if sxx > 0.0 { sxf / sxx } else { 0.0 };
+    let r: Vec<f64> = u
+        .iter()
+        .zip(f)
+        .zip(groups)
+        .map(|((u, f), g)| {
+            let (mu, mf) = mean(*g);
+            f - mf - b * (u - mu)
+        })
+        .collect();
+    let rho = lag1_autocorrelation(&r).clamp(0.0, 0.999);
+    let n_eff = (n * (1.0 - rho) / (1.0 + rho)).max(3.0);
+    let s2 = r.iter().map(|e| e * e).sum::<f64>() / (n - sums.len() as f64 - 1.0).max(1.0);
+    let se = if sxx > 0.0 {
+        (s2 / sxx * n / n_eff).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    (b, se)
+}
+
 /// The offsets \[N\] a record that does not determine its own may be held at, the one
 /// its law fits best taken: 0 (a load cell zeroed before the test), and where the force
 /// falls below 0, its lowest point's (a contact cannot push below its offset). A record
@@ -700,6 +740,9 @@ fn check_contact(
     Ok(())
 }
 
+/// A slope \[N/m\] and its standard error.
+type Slope = (f64, f64);
+
 /// The points behind a fit's contact point.
 struct FreeSpace {
     /// Native samples behind the contact point.
@@ -708,10 +751,11 @@ struct FreeSpace {
     stretches: Vec<(f64, f64)>,
     /// Contacts that start within the record (a stretch followed by contact).
     onsets: usize,
-    /// Slope of force on oriented position behind the contact point \[N/m\], its standard
-    /// error (effective sample size), and the travel \[m\] it was measured over: over the
-    /// free points at least a fifth of their reach behind it.
-    slope: Option<(f64, f64, f64)>,
+    /// Slope of force on oriented position behind the contact point \[N/m\] and its
+    /// standard error (effective sample size), pooled and within each free stretch, and
+    /// the travel \[m\] it was measured over: over the free points at least a fifth of
+    /// their reach behind it.
+    slope: Option<(Slope, Slope, f64)>,
     block: usize,
     /// Force range of the record \[N\].
     force_range_n: f64,
@@ -789,67 +833,34 @@ impl FreeSpace {
             .copied()
             .filter(|&i| reach(i) >= 0.2 * reach_m)
             .collect();
-        // Where the free points lie in several stretches, the force is compared with the
-        // position with a trend in time beside it (both fitted, the position's slope
-        // judged): a load cell's zero that drifts in time sets each stretch at its own
-        // level, and where the probe hovers nearer the surface each time (an operator's
-        // lift-offs) the levels read as a slope on the position alone (an independent
-        // generator's teleoperation record with a 0.03 N/s drift: 76 N/m "behind the
-        // contact point", the offset held at 0, one contact seen of eight). (Not within
-        // each stretch alone: there, the light contact a misfit law leaves at every
-        // approach and retract is the only motion, and a relaxing, plastic record's five
-        // stretches of free space read 611 N/m.) In one stretch, position and time move
-        // together on an approach, and the position alone is judged, as a record that
-        // never leaves contact is.
-        let stretches_in_trend = {
-            let mut count = 0;
-            let mut previous = None;
-            for &i in &trend {
-                if previous.is_none_or(|p: usize| (p + 1..i).any(|j| !behind[j])) {
-                    count += 1;
-                }
-                previous = Some(i);
+        // The force is compared with the position pooled over the free points and within
+        // each free stretch (about its own means), and the record is taken to never leave
+        // contact only where both show it. Pooled alone, a load cell's zero that drifts
+        // in time puts each stretch at its own level, and where the operator hovers
+        // nearer the surface each time the levels read as a slope on the position (an
+        // independent generator's teleoperation record with a 0.03 N/s drift: 76 N/m, the
+        // offset held at 0, one contact seen of eight); within each stretch alone, the
+        // only motion is each approach's and retract's light contact that a misfit law
+        // leaves (a relaxing, plastic ramp-and-hold read 611 N/m across its five
+        // stretches). (A time trend beside the position, tried too, took a load-cell step
+        // after the first contact for a slope: the hidden-effect sweep's force-offset logs
+        // lost their offset.) In one stretch the two are the same.
+        let mut stretch_of = vec![0usize; behind.len()];
+        let mut id = 0;
+        for i in 0..behind.len() {
+            if behind[i] && i > 0 && !behind[i - 1] {
+                id += 1;
             }
-            count
-        };
-        let with_time = stretches_in_trend >= 2;
-        let slope = (trend.len() >= 3 + usize::from(with_time)).then(|| {
+            stretch_of[i] = id;
+        }
+        let slope = (trend.len() >= 3).then(|| {
             let u: Vec<f64> = trend.iter().map(|&i| sign * series.position_m[i]).collect();
             let f: Vec<f64> = trend.iter().map(|&i| unexplained[i]).collect();
-            let t: Vec<f64> = trend.iter().map(|&i| series.time_s[i]).collect();
-            let n = u.len() as f64;
-            // Each of u and f less its least-squares line in t (or its mean), then the
-            // slope of one on the other (Frisch-Waugh).
-            let detrend = |y: &[f64]| -> Vec<f64> {
-                let my = y.iter().sum::<f64>() / n;
-                if !with_time {
-                    return y.iter().map(|v| v - my).collect();
-                }
-                let mt = t.iter().sum::<f64>() / n;
-                let stt: f64 = t.iter().map(|v| (v - mt) * (v - mt)).sum();
-                let sty: f64 = t.iter().zip(y).map(|(a, b)| (a - mt) * (b - my)).sum();
-                let c = if stt > 0.0 { sty / stt } else { 0.0 };
-                t.iter()
-                    .zip(y)
-                    .map(|(a, b)| b - my - c * (a - mt))
-                    .collect()
-            };
-            let (du, df) = (detrend(&u), detrend(&f));
-            let sxx: f64 = du.iter().map(|x| x * x).sum();
-            let sxf: f64 = du.iter().zip(&df).map(|(x, y)| x * y).sum();
-            let b = if sxx > 0.0 { sxf / sxx } else { 0.0 };
-            let r: Vec<f64> = du.iter().zip(&df).map(|(x, y)| y - b * x).collect();
-            let rho = lag1_autocorrelation(&r).clamp(0.0, 0.999);
-            let n_eff = (n * (1.0 - rho) / (1.0 + rho)).max(3.0);
-            let dof = (n - if with_time { 3.0 } else { 2.0 }).max(1.0);
-            let s2 = r.iter().map(|e| e * e).sum::<f64>() / dof;
-            let se = if sxx > 0.0 {
-                (s2 / sxx * n / n_eff).sqrt()
-            } else {
-                f64::INFINITY
-            };
+            let groups: Vec<usize> = trend.iter().map(|&i| stretch_of[i]).collect();
+            let pooled = slope_about_means(&u, &f, &vec![0; u.len()]);
+            let within = slope_about_means(&u, &f, &groups);
             let (lo, hi) = min_max(&u);
-            (b, se, hi - lo)
+            (pooled, within, hi - lo)
         });
         let (flo, fhi) = min_max(&series.force_n);
         FreeSpace {
@@ -969,10 +980,13 @@ impl FreeSpace {
                 self.reach_m, self.visible_m
             ));
         }
-        if let Some((b, se, travel)) = self.slope {
+        if let Some(((b, se), within, travel)) = self.slope {
             // A trend that is both significant and material (2 % of the force range over
-            // the free travel): contact force, not a load-cell wobble.
-            if travel > 0.0 && b > 3.0 * se && b * travel > 0.02 * self.force_range_n {
+            // the free travel): contact force, not a load-cell wobble; pooled and within
+            // the stretches both.
+            let follows =
+                |(b, se): (f64, f64)| b > 3.0 * se && b * travel > 0.02 * self.force_range_n;
+            if travel > 0.0 && follows((b, se)) && follows(within) {
                 return Err(format!(
                     "behind the fitted contact point the force still follows the position \
                      ({b:.3e} N/m ± {se:.1e} over {travel:.3e} m): the record never leaves contact"
