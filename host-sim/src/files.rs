@@ -54,8 +54,10 @@ impl Loaded {
     /// `given` (`--force-sign`): −1 negates the force (the file reads compression
     /// negative), 1 keeps it; either is noted. `None`: the record is fitted as read, and
     /// where that fails or the fitted law's RMS residual leaves more than
-    /// [`FORCE_SIGN_CHECK_UNEXPLAINED`] of the force's variance, the negated force is
-    /// fitted too. It is taken, with a note, where its law fits the whole record (not the
+    /// [`FORCE_SIGN_CHECK_UNEXPLAINED`] of the force's variance, or where its offset was
+    /// held below 0 (a record read as never leaving contact, offset at the force's lowest
+    /// level: a compression-negative tap record fits so on the reversed axis), the negated
+    /// force is fitted too. It is taken, with a note, where its law fits the whole record (not the
     /// loading curve alone, [`FrontEnd::loading_only`]: a subset's RMS residual is not the
     /// record's), leaves at most that share of the variance itself, and either the force as read fits
     /// no law or its RMS residual is at least [`NEGATED_FORCE_RMS_FACTOR`] times smaller.
@@ -84,7 +86,14 @@ impl Loaded {
         let variance = crate::simulate::variance(force.iter().copied(), force.len().max(1));
         let explains = |rms: f64| rms * rms <= FORCE_SIGN_CHECK_UNEXPLAINED * variance;
         let as_read_rms = as_read.as_ref().ok().map(|f| f.law.rms_n());
-        if as_read_rms.is_some_and(explains) {
+        // An offset held below 0 (the force's lowest level, where the record never leaves
+        // contact) lets a law fit a compression-negative record on the reversed axis; the
+        // negated force is compared with it before it is taken.
+        let held_below_zero = as_read.as_ref().is_ok_and(|f| {
+            matches!(f.offset, frontend::OffsetSource::NotIdentifiable { .. })
+                && f.force_offset_n < 0.0
+        });
+        if as_read_rms.is_some_and(explains) && !held_below_zero {
             return as_read;
         }
         self.negate_force();
