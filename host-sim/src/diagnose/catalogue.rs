@@ -324,6 +324,12 @@ pub enum Param {
     RelaxedFraction,
     /// ν \[1/s\], rate of that relaxation mode.
     RatePerS,
+    /// The relaxing force already released at the fit window's first sample \[N\], beyond
+    /// what a loading from there would have released: a record that begins in contact
+    /// begins part-way through the mode's relaxation (its state z is not the fresh
+    /// loading's), and the difference decays at ν, Δ·e^{−ν(t − t₀)} (QLV eqs. 9-10, the
+    /// homogeneous solution). Fitted only where the window starts in contact.
+    InitialRelaxingN,
     /// Probe/tissue mass \[kg\].
     MassKg,
     /// Coulomb friction force magnitude F_c \[N\].
@@ -359,6 +365,7 @@ impl Param {
             Param::Q => "q",
             Param::RelaxedFraction => "relaxed_fraction",
             Param::RatePerS => "rate_per_s",
+            Param::InitialRelaxingN => "initial_relaxing_n",
             Param::MassKg => "mass_kg",
             Param::CoulombN => "coulomb_n",
             Param::ForceOffsetN => "force_offset_n",

@@ -24,6 +24,10 @@ pub enum Column {
     /// The relaxing part of the elastic column, z − u with z' = −ν·z + du/dt (the core's QLV
     /// mode, [`estimator_core::laws::relaxing_step`]): its first-order low-pass, negated.
     Relaxing,
+    /// e^{−ν(t − t₀)} in contact from the fit window's first sample t₀ (only where that
+    /// sample is in contact): the relaxing state's own decay from a state the window did
+    /// not see being loaded, coefficient [`super::catalogue::Param::InitialRelaxingN`].
+    RelaxingStart,
     /// δ̈, coefficient the mass.
     Inertia,
     /// tanh(δ̇/v_s), coefficient F_c.
@@ -607,6 +611,24 @@ pub(super) fn design(
         names.push(Column::Relaxing);
         columns.push(lp);
         material.push(true);
+        if gate.first() == Some(&true) {
+            // A window that begins in contact begins in some state of the mode: z is
+            // linear in its initial value, so the part of it the zero start above misses
+            // decays on its own, e^{−νt}, whatever the motion does.
+            let decay = 1.0 - one_minus_decay;
+            let mut h = 1.0;
+            let free: Vec<f64> = gate
+                .iter()
+                .map(|g| {
+                    let v = if *g { h } else { 0.0 };
+                    h *= decay;
+                    v
+                })
+                .collect();
+            names.push(Column::RelaxingStart);
+            columns.push(free);
+            material.push(true);
+        }
     }
     if has(Effect::Inertia) {
         names.push(Column::Inertia);

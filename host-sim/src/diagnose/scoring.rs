@@ -4,7 +4,7 @@
 
 use super::catalogue::{Effect, Param};
 use super::data::Prepared;
-use super::regressors::Design;
+use super::regressors::{Column, Design};
 use super::solver::{least_squares, Fit};
 use super::{Candidate, Options};
 
@@ -24,6 +24,15 @@ fn contiguous_fold(fold: usize, n: usize) -> std::ops::Range<usize> {
 /// empty: none) are neither
 /// fitted nor tested. Returns the held-out RMS error of
 /// each fold \[N\] (infinite where the fold cannot be fitted).
+///
+/// A relaxation mode's initial state ([`Column::RelaxingStart`], a window that begins in
+/// contact) lives in the window's first seconds: where the training rows hold less than
+/// half of its column's sum of squares (the fold holding the start out), it is left out
+/// of the training fit and estimated on the held-out fold itself, the other coefficients
+/// fixed, as system identification validates a model on fresh data with its initial
+/// state estimated there (Ljung, *System Identification*, 2nd ed., §16.6; MATLAB's
+/// `compare` with `InitialCondition` `'estimate'`). Fitted on the other folds, a column
+/// nearly zero there gets an arbitrary coefficient.
 pub(super) fn cross_validate(
     design: &Design,
     y: &[f64],
@@ -32,6 +41,10 @@ pub(super) fn cross_validate(
 ) -> Vec<f64> {
     let n = y.len();
     let out = |i: usize| left_out.get(i).copied().unwrap_or(false);
+    let start_column = design
+        .names
+        .iter()
+        .position(|c| *c == Column::RelaxingStart);
     (0..FOLDS)
         .map(|f| {
             let held_out = |i: usize| match block {
@@ -40,17 +53,58 @@ pub(super) fn cross_validate(
             };
             let train: Vec<bool> = (0..n).map(|i| !held_out(i) && !out(i)).collect();
             let held: Vec<usize> = (0..n).filter(|&i| held_out(i) && !out(i)).collect();
-            match least_squares(design, y, Some(&train), &[]) {
+            let unseen_start = start_column.filter(|&j| {
+                let c = &design.columns[j];
+                let (seen, all) = (0..n)
+                    .filter(|&i| !out(i))
+                    .fold((0.0, 0.0), |(seen, all), i| {
+                        let v = c[i] * c[i];
+                        (if train[i] { seen + v } else { seen }, all + v)
+                    });
+                seen < 0.5 * all
+            });
+            let solve = match unseen_start {
+                Some(j) => {
+                    least_squares(&without_column(design, j), y, Some(&train), &[]).map(|mut s| {
+                        s.beta.insert(j, 0.0);
+                        s
+                    })
+                }
+                None => least_squares(design, y, Some(&train), &[]),
+            };
+            match solve {
                 Some(s) => {
-                    let e: f64 = held
+                    let predicted: Vec<f64> = held
                         .iter()
                         .map(|&i| {
-                            let p: f64 = design
+                            design
                                 .columns
                                 .iter()
                                 .zip(&s.beta)
                                 .map(|(c, b)| c[i] * b)
-                                .sum();
+                                .sum()
+                        })
+                        .collect();
+                    let initial = unseen_start.map_or(0.0, |j| {
+                        let c = &design.columns[j];
+                        let (cy, cc) = held
+                            .iter()
+                            .zip(&predicted)
+                            .fold((0.0, 0.0), |(cy, cc), (&i, p)| {
+                                (cy + c[i] * (y[i] - p), cc + c[i] * c[i])
+                            });
+                        if cc > 0.0 {
+                            cy / cc
+                        } else {
+                            0.0
+                        }
+                    });
+                    let e: f64 = held
+                        .iter()
+                        .zip(&predicted)
+                        .map(|(&i, p)| {
+                            let p =
+                                p + unseen_start.map_or(0.0, |j| initial * design.columns[j][i]);
                             (y[i] - p) * (y[i] - p)
                         })
                         .sum();
@@ -60,6 +114,26 @@ pub(super) fn cross_validate(
             }
         })
         .collect()
+}
+
+/// `design` without its column `j`.
+fn without_column(design: &Design, j: usize) -> Design {
+    let keep = |v: usize| v != j;
+    Design {
+        names: (design.names.iter().enumerate())
+            .filter(|(v, _)| keep(*v))
+            .map(|(_, c)| *c)
+            .collect(),
+        columns: (design.columns.iter().enumerate())
+            .filter(|(v, _)| keep(*v))
+            .map(|(_, c)| c.clone())
+            .collect(),
+        material: (design.material.iter().enumerate())
+            .filter(|(v, _)| keep(*v))
+            .map(|(_, m)| *m)
+            .collect(),
+        gate: design.gate.clone(),
+    }
 }
 
 /// A fold "moves" when its in-contact Σδ̇² is at least this share of the folds' mean

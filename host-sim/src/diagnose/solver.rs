@@ -26,8 +26,8 @@ pub(super) struct Solve {
     pub(super) rss: f64,
 }
 
-/// Most regression columns of any model.
-const MAX_COLUMNS: usize = 8;
+/// Most regression columns of any model (every [`Column`] at once).
+const MAX_COLUMNS: usize = 10;
 
 /// Least squares on columns scaled to unit RMS (normal equations, Cholesky with a tiny
 /// ridge for rank-deficient columns such as an all-zero effect), with the
@@ -1143,6 +1143,9 @@ fn name_parameters(
         let se_c = se_of(&[(Slot::Column(j), 1.0 / e), (Slot::Column(0), -c / e)]);
         push(Param::RelaxedFraction, c, se_c);
         push(Param::RatePerS, nl.nu, knob_se(Knob::RelaxationRate));
+        if let Some(j) = col(Column::RelaxingStart) {
+            push(Param::InitialRelaxingN, solve.beta[j], se(j));
+        }
     }
     for (column, param) in [
         (Column::Inertia, Param::MassKg),

@@ -61,6 +61,15 @@ pub struct Relaxation {
     pub relaxed_fraction: f64,
     /// Rate ν \[1/s\].
     pub rate_per_s: f64,
+    /// Where the record begins in contact: the relaxing force already released at its
+    /// first fitting sample beyond a fresh loading's \[N\], decaying at ν
+    /// ([`Param::InitialRelaxingN`]); 0 (and absent from the file) otherwise.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub initial_relaxing_n: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Coulomb friction F_c·tanh(δ̇/v_s) in contact.
@@ -157,6 +166,7 @@ impl ModelSpec {
             Some(Relaxation {
                 relaxed_fraction: param(fit, Param::RelaxedFraction)?,
                 rate_per_s: param(fit, Param::RatePerS)?,
+                initial_relaxing_n: fit.parameter(Param::InitialRelaxingN).unwrap_or(0.0),
             })
         } else {
             None
@@ -284,6 +294,7 @@ impl ModelSpec {
             // `diagnose::physical`).
             non_negative("relaxation.relaxed_fraction", r.relaxed_fraction)?;
             non_negative("relaxation.rate_per_s", r.rate_per_s)?;
+            finite("relaxation.initial_relaxing_n", r.initial_relaxing_n)?;
         }
         present("mass_kg", Effect::Inertia, self.mass_kg.is_some())?;
         if let Some(m) = self.mass_kg {
@@ -386,6 +397,7 @@ impl ModelSpec {
             Column::Relaxing => self
                 .relaxation
                 .map_or(0.0, |r| r.relaxed_fraction * elastic),
+            Column::RelaxingStart => self.relaxation.map_or(0.0, |r| r.initial_relaxing_n),
             Column::Inertia => self.mass_kg.unwrap_or(0.0),
             Column::Coulomb => self.coulomb.map_or(0.0, |c| c.force_n),
             Column::Tare => self.force_offset_n - data.force_offset_n,
@@ -554,6 +566,7 @@ mod tests {
                     s.relaxation = Some(Relaxation {
                         relaxed_fraction: 0.3,
                         rate_per_s: 1.0,
+                        initial_relaxing_n: 0.0,
                     })
                 },
                 "field relaxation",
