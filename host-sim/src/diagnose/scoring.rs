@@ -526,13 +526,30 @@ pub(super) fn score(
 /// `duration_s` of the fit: a relaxation mode relaxes (relaxed fraction c ≥ 0; a negative
 /// one is a force that grows while the depth is held, mimicking stiffening) and never
 /// by more than the whole force within the record (c·(1 − e^(−ν·T)) < 1: a mode slower
-/// than the record only fixes the product c·ν, so c alone may exceed 1); friction
-/// opposes motion (c ≥ 0).
+/// than the record only fixes the product c·ν, so c alone may exceed 1); its initial
+/// state (a record that begins in contact, [`Param::InitialRelaxingN`]) is a part of its
+/// relaxing force c·(z − u), so at most c times the largest elastic force, taken as twice
+/// the model's force range over the record (the history before the record is not seen: a
+/// deeper past allowed for); friction opposes motion (c ≥ 0). (An initial state beyond that
+/// is a slow trend in time under the name of a relaxation: an independent generator's
+/// clean 12 s record in contact throughout, pink noise, was given a 0.37 N initial state
+/// on a mode of c = 1.4·10⁻⁴.)
 pub fn physical(fit: &Fit, duration_s: f64) -> bool {
     let rate = fit.parameter(Param::RatePerS).unwrap_or(0.0);
-    fit.parameter(Param::RelaxedFraction)
-        .is_none_or(|c| c >= 0.0 && c * -(-rate * duration_s).exp_m1() < 1.0)
-        && fit.parameter(Param::CoulombN).is_none_or(|c| c >= 0.0)
+    let (lowest, highest) = fit
+        .prediction
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let relaxable_n = 2.0 * (highest - lowest).max(0.0);
+    fit.parameter(Param::RelaxedFraction).is_none_or(|c| {
+        c >= 0.0
+            && c * -(-rate * duration_s).exp_m1() < 1.0
+            && fit
+                .parameter(Param::InitialRelaxingN)
+                .is_none_or(|initial| initial.abs() <= c * relaxable_n)
+    }) && fit.parameter(Param::CoulombN).is_none_or(|c| c >= 0.0)
 }
 
 #[cfg(test)]
@@ -553,6 +570,48 @@ mod tests {
                 x
             })
             .collect()
+    }
+
+    /// A relaxation's initial state is at most c times twice the model's force range:
+    /// 0.37 N on a mode of c = 1.4·10⁻⁴ over a 33 N range (an independent generator's
+    /// clean record in contact throughout, its slow noise taken as a relaxation begun
+    /// before the record) is not physical; the same mode with a 5 mN state is, and so is a
+    /// mode of c = 0.44 begun 2.4 N into its relaxation.
+    #[test]
+    fn a_relaxation_begun_before_the_record_is_bounded_by_its_own_force() {
+        use super::super::catalogue::{Determination, Estimate, Nonlinear};
+        let fit = |c: f64, rate: f64, initial: f64| {
+            let estimate = |param, value| Estimate {
+                param,
+                value,
+                standard_error: 0.0,
+                determination: Determination::Determined,
+            };
+            Fit {
+                effects: vec![Effect::Relaxation],
+                nonlinear: Nonlinear::default(),
+                parameters: vec![
+                    estimate(Param::RelaxedFraction, c),
+                    estimate(Param::RatePerS, rate),
+                    estimate(Param::InitialRelaxingN, initial),
+                ],
+                rss: 1.0,
+                samples: 100,
+                nrmse_percent: 1.0,
+                vaf_percent: 99.0,
+                bic: 0.0,
+                free_parameters: 5,
+                cv_rmse_per_fold: vec![1.0; FOLDS],
+                cv_rmse: 1.0,
+                residual_sample_fraction: 1.0,
+                damping_combination_se: f64::NAN,
+                prediction: (0..100).map(|i| 23.0 + 0.33 * i as f64).collect(),
+                start: 0,
+            }
+        };
+        assert!(!physical(&fit(1.4e-4, 0.0246, -0.37), 12.0));
+        assert!(physical(&fit(1.4e-4, 0.0246, -0.005), 12.0));
+        assert!(physical(&fit(0.44, 1.8, -2.4), 12.0));
     }
 
     /// White noise counts about every sample; AR(1) noise with φ = 0.8 fewer than a
