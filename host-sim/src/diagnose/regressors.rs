@@ -678,7 +678,7 @@ pub(super) fn design(
 }
 
 /// Least share of the window's force range its first fitting samples must carry for a
-/// relaxation's initial state to be fitted ([`begins_loaded`]).
+/// relaxation's initial state to be fitted (`begins_loaded`).
 pub const LOADED_START_SHARE: f64 = 0.1;
 
 /// Whether `force` (offset removed, over the fit window) begins loaded: the mean of its
