@@ -691,11 +691,7 @@ pub const LOADED_START_SHARE: f64 = 0.1;
 /// 1.8 µN start, its power law's n moving from 1.78 to 2.48). The independent
 /// generator's records cut mid-hold begin at 43-73 % of their range.
 fn begins_loaded(force: &[f64]) -> bool {
-    let (lo, hi) = force
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), f| {
-            (lo.min(*f), hi.max(*f))
-        });
+    let (lo, hi) = crate::frontend::fit::min_max(force);
     let head = &force[..force.len().min(20)];
     let start = head.iter().sum::<f64>() / head.len().max(1) as f64;
     hi > lo && start >= LOADED_START_SHARE * (hi - lo)

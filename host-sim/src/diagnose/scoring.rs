@@ -536,19 +536,15 @@ pub(super) fn score(
 /// on a mode of c = 1.4·10⁻⁴.)
 pub fn physical(fit: &Fit, duration_s: f64) -> bool {
     let rate = fit.parameter(Param::RatePerS).unwrap_or(0.0);
-    let (lowest, highest) = fit
-        .prediction
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
-    let relaxable_n = 2.0 * (highest - lowest).max(0.0);
     fit.parameter(Param::RelaxedFraction).is_none_or(|c| {
         c >= 0.0
             && c * -(-rate * duration_s).exp_m1() < 1.0
             && fit
                 .parameter(Param::InitialRelaxingN)
-                .is_none_or(|initial| initial.abs() <= c * relaxable_n)
+                .is_none_or(|initial| {
+                    let (lowest, highest) = crate::frontend::fit::min_max(&fit.prediction);
+                    initial.abs() <= c * 2.0 * (highest - lowest).max(0.0)
+                })
     }) && fit.parameter(Param::CoulombN).is_none_or(|c| c >= 0.0)
 }
 
