@@ -1047,7 +1047,10 @@ pub fn simulate_spec(
     path: &Path,
     format: &str,
 ) -> Result<SpecSimulation> {
-    let prepare = prepare_file(path, format, &Overrides::default(), None)?;
+    let mut prepare = prepare_file(path, format, &Overrides::default(), None)?;
+    if let Some(t_s) = spec.later_force_offset_at_s {
+        prepare.prepared.set_offset_step_s(t_s);
+    }
     let data = &prepare.prepared;
     let force_n = spec.force_n(data);
     let measured = &data.force_n[data.fit_start()..];

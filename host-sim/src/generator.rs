@@ -32,6 +32,12 @@ pub struct Truth {
     pub rate_per_s: f64,
     /// Load-cell bias step after the tare \[N\].
     pub force_offset_n: f64,
+    /// Where in the free stretch after the first contact that step falls: 0 at the
+    /// lift-off, 1 at the next touch (a zero that shifts with the load need not shift
+    /// the moment the load comes off).
+    pub force_offset_at: f64,
+    /// When that step falls \[s\] from the log's first sample (0 without one).
+    pub force_offset_step_s: f64,
     /// Drift of the load cell's zero \[N/s\] from the log's start.
     pub force_drift_n_per_s: f64,
     /// Surface shift after the first tap \[m\] (the workflow sees −shift as contact offset).
@@ -273,6 +279,7 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
     };
     if has(Effect::ForceOffset) {
         truth.force_offset_n = signed(&mut rng, 0.02, 0.06) * f_max;
+        truth.force_offset_at = rng.random_range(0.0..1.0);
     }
     if has(Effect::ForceDrift) {
         // 2-6 % of the peak force over the log's 17 s.
@@ -333,6 +340,14 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
     let first_left = (first_touch..n)
         .find(|i| log.true_depth_m[*i] <= 0.0)
         .unwrap_or(n);
+    let next_touch = (first_left..n)
+        .find(|i| log.true_depth_m[*i] > 0.0)
+        .unwrap_or(n);
+    let offset_step =
+        first_left + (truth.force_offset_at * (next_touch - first_left) as f64) as usize;
+    if truth.force_offset_n != 0.0 {
+        truth.force_offset_step_s = offset_step as f64 * T;
+    }
     for f in [&mut log.force_n, &mut noiseless] {
         if truth.delay_s > 0.0 {
             let shift = truth.delay_s / T;
@@ -350,7 +365,7 @@ pub fn generate(effects: &[Effect], seed: u64) -> Generated {
         }
         if truth.force_offset_n != 0.0 {
             // The load cell's zero shifts after its first load: the tare no longer holds.
-            for v in f.iter_mut().skip(first_left) {
+            for v in f.iter_mut().skip(offset_step) {
                 *v += truth.force_offset_n;
             }
         }

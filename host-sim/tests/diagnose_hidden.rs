@@ -430,3 +430,45 @@ fn an_exponential_material_keeps_its_free_space_and_its_later_contacts() {
         fit.nrmse_percent
     );
 }
+
+/// A load-cell zero that shifts late in the free stretch after the first contact, not
+/// at the lift-off (a zero that shifts with the load need not shift the moment the load
+/// comes off), is named first, placed where it shifts (within two fitting samples) and
+/// sized within 10 %. With the step fixed at the lift-off, the stretch's samples before
+/// it read as a misfit of the old zero: an independent generator's multi-speed records
+/// with the step in the middle of a long hover named a drift or a contact shift instead
+/// in 4 of 8 logs.
+#[test]
+fn a_load_cell_zero_that_shifts_late_in_the_free_stretch_is_named_where_it_shifts() {
+    use host_sim::diagnose::catalogue::Param;
+    // The first seed past the quick run's whose step falls in the stretch's last 40 %.
+    let (seed, g) = (QUICK_SEED + 1..QUICK_SEED + 50)
+        .map(|s| (s, generator::generate(&[Effect::ForceOffset], s)))
+        .find(|(_, g)| g.truth.force_offset_at > 0.6)
+        .expect("a seed with a late step");
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let run = diagnose_as_a_user(dir.path(), &g, &format!("late step, seed {seed}"));
+    let d = &run.diagnosis;
+    assert_eq!(
+        d.steps.first().map(|s| s.effect),
+        Some(Effect::ForceOffset),
+        "seed {seed}: {}",
+        d.final_model()
+    );
+    let offset = d
+        .final_fit
+        .parameter(Param::ForceOffsetN)
+        .expect("the offset's parameter");
+    assert!(
+        (offset / g.truth.force_offset_n - 1.0).abs() < 0.1,
+        "seed {seed}: {offset} N against {} N",
+        g.truth.force_offset_n
+    );
+    let placed = run.prepared.offset_step_s();
+    assert!(
+        (placed - g.truth.force_offset_step_s).abs() <= 2.0 * run.prepared.dt,
+        "seed {seed}: step at {placed} s, truly {} s (fitting samples of {} s)",
+        g.truth.force_offset_step_s,
+        run.prepared.dt
+    );
+}

@@ -334,7 +334,8 @@ pub enum Param {
     MassKg,
     /// Coulomb friction force magnitude F_c \[N\].
     CoulombN,
-    /// Load-cell bias that appears after the first contact \[N\].
+    /// Load-cell bias that appears after the first contact \[N\] (somewhere in the free
+    /// stretch that follows it: `Prepared::offset_step`).
     ForceOffsetN,
     /// Refinement of the tare \[N\] (part of every model).
     TareN,

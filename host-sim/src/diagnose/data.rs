@@ -205,6 +205,10 @@ pub struct Prepared {
     /// First fitting sample after the end of the first contact: the probe is back above
     /// the first contact point (the length if the log never leaves its first contact).
     pub first_contact_end: usize,
+    /// First fitting sample of a `force_offset`'s later load-cell zero: the change point
+    /// of the free-space force within the free stretch that follows the first contact
+    /// ([`load_cell_step`]); `first_contact_end` where that stretch shows none.
+    pub offset_step: usize,
     /// The linear damping coefficient is held at 0 in every model (set by the workflow
     /// when the record passes each depth at one speed, where λ·δ̇ is indistinguishable
     /// from the elastic law and the tare but for its step λv at a contact onset from free
@@ -465,6 +469,7 @@ fn assemble(
     let first_contact_end = (first_block..blocks)
         .find(|b| depth[*b] <= 0.0)
         .unwrap_or(blocks);
+    let offset_step = load_cell_step(&force, &in_contact, first_contact_end);
     let raw_depth: Vec<f64> = position_m[..blocks * block]
         .iter()
         .map(|x| x - x_c)
@@ -517,12 +522,93 @@ fn assemble(
         block,
         measurement_samples,
         first_contact_end,
+        offset_step,
         hold_damping: false,
         offset_unidentified: false,
         hold_tare: false,
         position_sign: 1.0,
     }
 }
+
+/// Where a load-cell zero shift after the first contact takes effect: the first fitting
+/// sample of the later level. A zero that shifts with the load (a cable, a re-tare, the
+/// cell's hysteresis) need not shift the moment the probe leaves the first contact: it
+/// may shift anywhere in the free stretch that follows, and the samples of that stretch
+/// before the shift still read the old zero. The free-space force (`force` where
+/// `contact` is false, in time order: before the first contact, that stretch, and
+/// later) is split in two at each point of the stretch from `first_contact_end` to the
+/// next contact's onset, and the split of the largest between-means contrast
+/// (S_j − j·S/n)²·n / (j·(n − j)) — the least-squares single change point (Hinkley,
+/// Biometrika 57, 1970) — is taken where it lowers the BIC of that two-level fit against
+/// the split at `first_contact_end` by more than [`STEP_BIC_DROP`], the location counted
+/// as a parameter, on the free force's effective samples
+/// ([`super::scoring::effective_fraction`] of its detrended stretches): the search
+/// otherwise fits a coloured noise's wander. `first_contact_end` where it does not, or
+/// where the record has no such stretch or no free sample on one side of it (the step
+/// then falls at the lift-off).
+///
+/// `force` and `contact` are per fitting sample (equal lengths); returns an index in
+/// `first_contact_end..=len`.
+pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize) -> usize {
+    let n = force.len().min(contact.len());
+    if first_contact_end >= n {
+        return first_contact_end;
+    }
+    let gap_end = (first_contact_end..n).find(|&b| contact[b]).unwrap_or(n);
+    let free: Vec<usize> = (0..n).filter(|&b| !contact[b]).collect();
+    let m = free.len() as f64;
+    let total: f64 = free.iter().map(|&b| force[b]).sum();
+    let mean = total / m;
+    let rss0: f64 = free.iter().map(|&b| (force[b] - mean).powi(2)).sum();
+    let (mut best, mut best_contrast, mut at_lift_off, mut prefix) =
+        (first_contact_end, 0.0, None, 0.0);
+    for (j, &b) in free.iter().enumerate() {
+        // Split before free sample j (block b): j samples at the old zero.
+        if j > 0 && b >= first_contact_end && free[j - 1] < gap_end {
+            let k = j as f64;
+            let contrast = (prefix - k * total / m).powi(2) * m / (k * (m - k));
+            at_lift_off.get_or_insert(contrast);
+            if contrast > best_contrast {
+                best_contrast = contrast;
+                best = b.clamp(first_contact_end, gap_end);
+            }
+        }
+        prefix += force[b];
+    }
+    let Some(at_lift_off) = at_lift_off else {
+        return first_contact_end;
+    };
+    // The free force's effective samples, as the workflow counts the sensor noise's.
+    let mut runs: Vec<Vec<f64>> = Vec::new();
+    let mut b = 0;
+    while b < n {
+        let run = contact[b..n].iter().take_while(|c| !**c).count();
+        if run >= super::scoring::NOISE_STRETCH {
+            let mut r = force[b..b + run].to_vec();
+            super::scoring::detrend(&mut r);
+            runs.push(r);
+        }
+        b += run.max(1);
+    }
+    let runs: Vec<&[f64]> = runs.iter().map(Vec::as_slice).collect();
+    let n_eff = (m * super::scoring::effective_fraction(&runs)).max(2.0);
+    let (rss_lift_off, rss_best) = (rss0 - at_lift_off, rss0 - best_contrast);
+    let moved = if rss_best > 0.0 {
+        n_eff * (rss_lift_off / rss_best).ln() > STEP_BIC_DROP + n_eff.ln()
+    } else {
+        best_contrast > at_lift_off // a noise-free step
+    };
+    if moved {
+        best
+    } else {
+        first_contact_end
+    }
+}
+
+/// BIC drop \[-\] beyond its location's own parameter by which a load-cell step placed
+/// within the free stretch must beat one at the lift-off ([`load_cell_step`]): the
+/// workflow's default threshold for naming an effect (`Options::min_bic_drop`).
+pub const STEP_BIC_DROP: f64 = 10.0;
 
 /// Fewest raw samples of a log.
 pub const MIN_SAMPLES: usize = 200;
@@ -534,6 +620,18 @@ impl Prepared {
     /// drifting load-cell zero.
     pub fn since_start_s(&self, i: usize) -> f64 {
         self.time_s[i] - self.time_s[0]
+    }
+
+    /// [`Prepared::offset_step`] as time since the log's first sample \[s\].
+    pub fn offset_step_s(&self) -> f64 {
+        self.offset_step as f64 * self.dt
+    }
+
+    /// Places [`Prepared::offset_step`] at `t_s` seconds from the log's first sample (a
+    /// spec's `later_force_offset_at_s` run over another record's motion): the nearest
+    /// fitting sample, at most the length (no shift within the log).
+    pub fn set_offset_step_s(&mut self, t_s: f64) {
+        self.offset_step = ((t_s / self.dt).round().max(0.0) as usize).min(self.len());
     }
 
     /// The first fitting sample, from the first one flagged in contact on, whose depth is
@@ -656,6 +754,7 @@ impl Prepared {
         self.raw_depth_m.truncate(end * self.block);
         self.raw_depth_prefix.truncate(end * self.block + 1);
         self.first_contact_end = self.first_contact_end.min(end);
+        self.offset_step = self.offset_step.min(end);
         true
     }
 
@@ -782,5 +881,35 @@ pub(super) mod tests {
         assert!(!held.left_out[held.len() - 1]);
         assert_eq!(held.kinks(), held.left_out.iter().filter(|k| **k).count());
         assert!(!approached.left_out[0]);
+    }
+
+    /// A load-cell zero that shifts in the free stretch after the first contact is placed
+    /// where it shifts, not at the lift-off; with no stretch, at the lift-off.
+    #[test]
+    fn a_load_cell_step_is_placed_where_the_free_force_changes_level() {
+        // Free 0..100, contact 100..200, free 200..400 (the step at 330), contact
+        // 400..500, free 500..600: a 0.05 N step under ±0.01 N of alternating noise.
+        let contact: Vec<bool> = (0..600)
+            .map(|i| (100..200).contains(&i) || (400..500).contains(&i))
+            .collect();
+        let force: Vec<f64> = (0..600)
+            .map(|i| {
+                let noise = if i % 2 == 0 { 0.01 } else { -0.01 };
+                let level = if i >= 330 { 0.05 } else { 0.0 };
+                if contact[i] {
+                    5.0
+                } else {
+                    level + noise
+                }
+            })
+            .collect();
+        assert_eq!(load_cell_step(&force, &contact, 200), 330);
+        // A step at the next touch: all of the stretch reads the old zero.
+        let late: Vec<f64> = (0..600)
+            .map(|i| if i >= 400 && !contact[i] { 0.05 } else { 0.0 })
+            .collect();
+        assert_eq!(load_cell_step(&late, &contact, 200), 400);
+        // A record that never leaves its first contact has no stretch.
+        assert_eq!(load_cell_step(&force, &contact, 600), 600);
     }
 }

@@ -766,7 +766,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             c.significant = false;
             c
         }));
-        candidates.sort_by(|a, b| a.fit.cv_rmse.total_cmp(&b.fit.cv_rmse));
+        // By held-out error against the current model's on the folds that judge both
+        // (the same order as by held-out error where every fold judges every model).
+        candidates.sort_by(|a, b| b.cv_improvement.total_cmp(&a.cv_improvement));
         let Some((best, indistinguishable_from)) =
             choose(data, &candidates, options, noise_fraction)
         else {

@@ -34,7 +34,8 @@ pub enum Column {
     Coulomb,
     /// 1, coefficient the tare refinement.
     Tare,
-    /// 1 after the first contact, coefficient the later load-cell bias.
+    /// 1 from the load-cell step after the first contact on ([`Prepared::offset_step`]),
+    /// coefficient the later load-cell bias.
     ForceOffset,
     /// Time since the record's first sample \[s\], coefficient the load cell's zero
     /// drift \[N/s\].
@@ -648,17 +649,12 @@ pub(super) fn design(
     material.push(false);
     if has(Effect::ForceOffset) {
         // A bias the tare before the first impact missed appeared after it: a zero
-        // shift of the load cell after its first load.
+        // shift of the load cell after its first load, somewhere in the free stretch
+        // that follows (`data::load_cell_step`).
         names.push(Column::ForceOffset);
         columns.push(
             (start..data.len())
-                .map(|b| {
-                    if b >= data.first_contact_end {
-                        1.0
-                    } else {
-                        0.0
-                    }
-                })
+                .map(|b| if b >= data.offset_step { 1.0 } else { 0.0 })
                 .collect(),
         );
         material.push(false);

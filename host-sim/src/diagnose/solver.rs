@@ -163,9 +163,10 @@ pub struct Fit {
     pub bic: f64,
     /// Free parameters: regression coefficients plus nonlinear knobs.
     pub free_parameters: usize,
-    /// Blocked cross-validation RMSE \[N\] per fold.
+    /// Blocked cross-validation RMSE \[N\] per fold (NaN for a fold that cannot judge
+    /// the model: [`cross_validate`]).
     pub cv_rmse_per_fold: Vec<f64>,
-    /// Their mean \[N\].
+    /// Their mean over the folds that judge it \[N\].
     pub cv_rmse: f64,
     /// N_eff / N of this fit's own residual
     /// ([`residual_fraction`](super::scoring::residual_fraction)) where its RMS is within
@@ -1035,7 +1036,9 @@ fn fit_on(
         vaf_percent: vaf,
         bic,
         free_parameters: k,
-        cv_rmse: cv.iter().sum::<f64>() / cv.len().max(1) as f64,
+        // Over the folds that can judge the model (NaN: one that cannot, `cross_validate`).
+        cv_rmse: cv.iter().filter(|e| !e.is_nan()).sum::<f64>()
+            / cv.iter().filter(|e| !e.is_nan()).count().max(1) as f64,
         cv_rmse_per_fold: cv,
         residual_sample_fraction,
         damping_combination_se,

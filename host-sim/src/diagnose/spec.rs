@@ -118,6 +118,11 @@ pub struct ModelSpec {
     pub force_offset_n: f64,
     /// A further offset after the first contact \[N\] (a zero shift), if modelled.
     pub later_force_offset_n: Option<f64>,
+    /// When that zero shift took effect \[s\] from the record's first sample (in the free
+    /// stretch after the first contact; [`Prepared::offset_step`]), if modelled (absent
+    /// from specs written before it existed: at the first contact's lift-off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub later_force_offset_at_s: Option<f64>,
     /// Drift of the load cell's zero \[N/s\] from the record's first sample on, if
     /// modelled (absent from specs written before it existed: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -196,6 +201,9 @@ impl ModelSpec {
             contact_shift_m: fit.parameter(Param::ContactShiftM),
             force_offset_n: data.force_offset_n + fit.parameter(Param::TareN).unwrap_or(0.0),
             later_force_offset_n: fit.parameter(Param::ForceOffsetN),
+            later_force_offset_at_s: fit
+                .parameter(Param::ForceOffsetN)
+                .map(|_| data.offset_step_s()),
             force_drift_n_per_s: fit.parameter(Param::ForceDriftNPerS),
             nrmse_percent: fit.nrmse_percent,
             undetermined: fit
@@ -540,6 +548,7 @@ mod tests {
             contact_shift_m: None,
             force_offset_n: 0.0,
             later_force_offset_n: None,
+            later_force_offset_at_s: None,
             force_drift_n_per_s: None,
             nrmse_percent: 1.0,
             undetermined: BTreeMap::new(),
