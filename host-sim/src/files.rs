@@ -1048,8 +1048,11 @@ pub fn simulate_spec(
     format: &str,
 ) -> Result<SpecSimulation> {
     let mut prepare = prepare_file(path, format, &Overrides::default(), None)?;
-    if let Some(t_s) = spec.later_force_offset_at_s {
-        prepare.prepared.set_offset_step_s(t_s);
+    match (spec.later_force_offset_n, spec.later_force_offset_at_s) {
+        (Some(_), Some(t_s)) => prepare.prepared.set_offset_step_s(t_s),
+        // A spec written before the step's time was: at the first contact's lift-off.
+        (Some(_), None) => prepare.prepared.offset_step = prepare.prepared.first_contact_end,
+        _ => {}
     }
     let data = &prepare.prepared;
     let force_n = spec.force_n(data);

@@ -554,12 +554,19 @@ pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize)
     if first_contact_end >= n {
         return first_contact_end;
     }
-    let gap_end = (first_contact_end..n).find(|&b| contact[b]).unwrap_or(n);
+    // The stretch from the first sample the detector frees at or after the lift-off (its
+    // release may lag the position's: a shifted zero can hold the force above the
+    // release threshold) to the next onset.
+    let gap_start = (first_contact_end..n).find(|&b| !contact[b]).unwrap_or(n);
+    let gap_end = (gap_start..n).find(|&b| contact[b]).unwrap_or(n);
     let free: Vec<usize> = (0..n).filter(|&b| !contact[b]).collect();
     let m = free.len() as f64;
     let total: f64 = free.iter().map(|&b| force[b]).sum();
     let mean = total / m;
     let rss0: f64 = free.iter().map(|&b| (force[b] - mean).powi(2)).sum();
+    if rss0.is_nan() || rss0 <= 0.0 {
+        return first_contact_end; // a constant free force: no step to place
+    }
     let (mut best, mut best_contrast, mut at_lift_off, mut prefix) =
         (first_contact_end, 0.0, None, 0.0);
     for (j, &b) in free.iter().enumerate() {
@@ -596,7 +603,8 @@ pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize)
     let moved = if rss_best > 0.0 {
         n_eff * (rss_lift_off / rss_best).ln() > STEP_BIC_DROP + n_eff.ln()
     } else {
-        best_contrast > at_lift_off // a noise-free step
+        // A noise-free step, beyond the rounding of the sums.
+        best_contrast - at_lift_off > 1e-9 * rss0
     };
     if moved {
         best
@@ -754,7 +762,7 @@ impl Prepared {
         self.raw_depth_m.truncate(end * self.block);
         self.raw_depth_prefix.truncate(end * self.block + 1);
         self.first_contact_end = self.first_contact_end.min(end);
-        self.offset_step = self.offset_step.min(end);
+        self.offset_step = load_cell_step(&self.force_n, &self.contact, self.first_contact_end);
         true
     }
 
@@ -909,6 +917,14 @@ pub(super) mod tests {
             .map(|i| if i >= 400 && !contact[i] { 0.05 } else { 0.0 })
             .collect();
         assert_eq!(load_cell_step(&late, &contact, 200), 400);
+        // The detector releasing 10 samples after the position (a shifted zero holds the
+        // force above its threshold): the stretch begins where it frees.
+        let lagging: Vec<bool> = (0..600)
+            .map(|i| contact[i] || (200..210).contains(&i))
+            .collect();
+        assert_eq!(load_cell_step(&force, &lagging, 200), 330);
+        // A constant free force has no step to place.
+        assert_eq!(load_cell_step(&vec![0.0; 600], &contact, 200), 200);
         // A record that never leaves its first contact has no stretch.
         assert_eq!(load_cell_step(&force, &contact, 600), 600);
     }

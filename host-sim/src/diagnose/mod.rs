@@ -154,6 +154,9 @@ pub struct Candidate {
     pub cv_improvement: f64,
     /// Folds whose held-out error improved.
     pub folds_better: usize,
+    /// Folds that judged both models (all [`scoring::FOLDS`] but where one cannot see
+    /// the zero before a load-cell step: `scoring::cross_validate`).
+    pub folds_judged: usize,
     /// Passes the acceptance rule.
     pub significant: bool,
     /// Whether its parameters describe a passive material ([`physical`]).
@@ -1021,7 +1024,9 @@ fn best_joint(
         })
         .collect::<Vec<_>>()
         .into_iter()
-        .min_by(|x, y| x.second.fit.cv_rmse.total_cmp(&y.second.fit.cv_rmse))
+        // By held-out gain against the current model on the folds that judge both (a
+        // pair with a load-cell step is judged on four: `scoring::cross_validate`).
+        .max_by(|x, y| x.second.cv_improvement.total_cmp(&y.second.cv_improvement))
 }
 
 /// The joint fit `pair` of `first` and `second` (each fitted alone on the current model)

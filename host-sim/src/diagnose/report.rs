@@ -185,6 +185,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
             "delta_bic_of_keeping": r.kept.delta_bic,
             "cv_improvement_of_keeping": r.kept.cv_improvement,
             "folds_better_of_keeping": r.kept.folds_better,
+            "folds_judged_of_keeping": r.kept.folds_judged,
             "reason": r.reason(),
             "nrmse_percent_after": r.after.nrmse_percent,
         })).collect::<Vec<_>>(),
@@ -207,6 +208,7 @@ pub fn json(file: &str, d: &Diagnosis, data: &Prepared) -> Value {
             "delta_bic": c.delta_bic,
             "cv_improvement": c.cv_improvement,
             "folds_better": c.folds_better,
+            "folds_judged": c.folds_judged,
             "separating_motion": determining_motion(d, c.effect),
         })).collect::<Vec<_>>(),
         "not_identifiable": d.unidentifiable.iter().map(|e| {
@@ -290,7 +292,7 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
     for c in candidates {
         let _ = writeln!(
             out,
-            "| `{}` | {} | {:.3} | {:.1} | {:.2} | {}/5 | {} | {} |",
+            "| `{}` | {} | {:.3} | {:.1} | {:.2} | {}/{} | {} | {} |",
             c.effect.id(),
             c.replaces
                 .map_or("—".to_string(), |e| format!("`{}`", e.id())),
@@ -298,6 +300,7 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
             c.delta_bic,
             100.0 * c.cv_improvement,
             c.folds_better,
+            c.folds_judged,
             if c.significant {
                 "yes"
             } else if !c.physical {
@@ -570,7 +573,7 @@ pub fn markdown(
             r.kept.delta_bic,
             100.0 * r.kept.cv_improvement,
             r.kept.folds_better,
-            super::scoring::FOLDS,
+            r.kept.folds_judged,
             r.reason(),
             parameters_text(&r.after, data.position_sign),
             r.after.nrmse_percent,
@@ -608,7 +611,7 @@ pub fn markdown(
             c.delta_bic,
             100.0 * c.cv_improvement,
             c.folds_better,
-            super::scoring::FOLDS,
+            c.folds_judged,
             d.final_model(),
             determining_motion(d, c.effect)
         ));

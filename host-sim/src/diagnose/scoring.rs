@@ -505,6 +505,7 @@ pub(super) fn score(
     let (sum_fit, sum_current) = common().fold((0.0, 0.0), |(f, c), (a, b)| (f + a, c + b));
     let cv_improvement = 1.0 - sum_fit / sum_current;
     let folds_better = common().filter(|(a, b)| a < b).count();
+    let folds_judged = common().count();
     let is_physical = physical(&fit, duration_s);
     // An added effect whose own parameter ended exactly at its nested value (a start the
     // search never left, e.g. q = 0, below the damping exponent's range) is the current
@@ -534,6 +535,7 @@ pub(super) fn score(
         delta_bic,
         cv_improvement,
         folds_better,
+        folds_judged,
         significant,
         physical: is_physical,
         nested,

@@ -120,7 +120,9 @@ pub struct ModelSpec {
     pub later_force_offset_n: Option<f64>,
     /// When that zero shift took effect \[s\] from the record's first sample (in the free
     /// stretch after the first contact; [`Prepared::offset_step`]), if modelled (absent
-    /// from specs written before it existed: at the first contact's lift-off).
+    /// from specs written before it existed: at the first contact's lift-off). A time,
+    /// not a place in the motion: simulated over another record's motion, the shift
+    /// falls at that time of it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub later_force_offset_at_s: Option<f64>,
     /// Drift of the load cell's zero \[N/s\] from the record's first sample on, if
@@ -348,6 +350,15 @@ impl ModelSpec {
             Effect::ForceDrift,
             self.force_drift_n_per_s,
         )?;
+        if let Some(t) = self.later_force_offset_at_s {
+            if self.later_force_offset_n.is_none() {
+                bail!("field later_force_offset_at_s: given without later_force_offset_n");
+            }
+            finite("later_force_offset_at_s", t)?;
+            if t < 0.0 {
+                bail!("field later_force_offset_at_s: {t} is negative (seconds from the record's first sample)");
+            }
+        }
         if self.position_sign != 1.0 && self.position_sign != -1.0 {
             bail!(
                 "field position_sign: {}, expected 1 or -1",
@@ -559,7 +570,7 @@ mod tests {
     fn bad_specs_name_the_field() {
         assert!(valid().validate().is_ok());
         type Spoil = fn(&mut ModelSpec);
-        let cases: [(Spoil, &str); 6] = [
+        let cases: [(Spoil, &str); 8] = [
             (|s| s.schema = "other/1".into(), "field schema"),
             (
                 |s| s.elastic = ElasticLaw::PowerLaw { k: -1.0, n: 1.5 },
@@ -581,6 +592,18 @@ mod tests {
                 "field relaxation",
             ),
             (|s| s.position_sign = 0.5, "field position_sign"),
+            (
+                |s| s.later_force_offset_at_s = Some(1.0),
+                "field later_force_offset_at_s",
+            ),
+            (
+                |s| {
+                    s.effects.push(Effect::ForceOffset);
+                    s.later_force_offset_n = Some(0.1);
+                    s.later_force_offset_at_s = Some(-1.0);
+                },
+                "field later_force_offset_at_s",
+            ),
         ];
         for (spoil, field) in cases {
             let mut s = valid();
