@@ -290,17 +290,21 @@ fn free_space_fraction(data: &Prepared) -> Option<f64> {
 /// the noise on.
 pub const NOISE_STRETCH: usize = 20;
 
+/// Fewest free fitting samples, in stretches of [`NOISE_STRETCH`] or more, on which the
+/// sensor noise's colour is measured.
+pub const NOISE_SAMPLES: usize = 100;
+
 /// Whether [`noise_sample_fraction`] measures the noise: a front end that confirmed the
 /// free space ("free space" behind a contact point it could not confirm may still carry
-/// contact force: it measures misfit, not noise) and at least 100 samples in its
-/// stretches of [`NOISE_STRETCH`] or more.
+/// contact force: it measures misfit, not noise) and at least [`NOISE_SAMPLES`] samples
+/// in its stretches of [`NOISE_STRETCH`] or more.
 pub fn free_space_shows_noise(data: &Prepared) -> bool {
     !data.offset_unidentified
         && free_runs(data, 0, NOISE_STRETCH)
             .iter()
             .map(|(_, run)| run)
             .sum::<usize>()
-            >= 100
+            >= NOISE_SAMPLES
 }
 
 /// Removes the least-squares line of `run` (at least 2 values) from it.

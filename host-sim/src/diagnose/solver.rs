@@ -164,7 +164,7 @@ pub struct Fit {
     /// Free parameters: regression coefficients plus nonlinear knobs.
     pub free_parameters: usize,
     /// Blocked cross-validation RMSE \[N\] per fold (NaN for a fold that cannot judge
-    /// the model: [`cross_validate`]).
+    /// the model: `scoring::cross_validate`).
     pub cv_rmse_per_fold: Vec<f64>,
     /// Their mean over the folds that judge it \[N\].
     pub cv_rmse: f64,
