@@ -587,25 +587,14 @@ pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize)
         return first_contact_end;
     };
     // The free force's effective samples, as the workflow counts the sensor noise's.
-    let mut runs: Vec<Vec<f64>> = Vec::new();
-    let mut b = 0;
-    while b < n {
-        let run = contact[b..n].iter().take_while(|c| !**c).count();
-        if run >= super::scoring::NOISE_STRETCH {
-            let mut r = force[b..b + run].to_vec();
-            super::scoring::detrend(&mut r);
-            runs.push(r);
-        }
-        b += run.max(1);
-    }
-    if runs.iter().map(Vec::len).sum::<usize>() < super::scoring::NOISE_SAMPLES {
+    let fraction = match super::scoring::free_stretches_fraction(&force[..n], &contact[..n]) {
+        Some((fraction, samples)) if samples >= super::scoring::NOISE_SAMPLES => fraction,
         // Too little free space to measure the noise's colour on: a coloured noise's
         // wander cannot be told from a shift (a 1.3 s, 100 Hz load-unload record with
         // AR(1) noise, ρ = 0.96, took a 0.2 % NRMSE gain for one).
-        return first_contact_end;
-    }
-    let runs: Vec<&[f64]> = runs.iter().map(Vec::as_slice).collect();
-    let n_eff = (m * super::scoring::effective_fraction(&runs)).max(2.0);
+        _ => return first_contact_end,
+    };
+    let n_eff = (m * fraction).max(2.0);
     let (rss_lift_off, rss_best) = (rss0 - at_lift_off, rss0 - best_contrast);
     let moved = if rss_best > 0.0 {
         n_eff * (rss_lift_off / rss_best).ln() > STEP_BIC_DROP + n_eff.ln()

@@ -270,9 +270,16 @@ pub fn noise_sample_fraction(data: &Prepared) -> Option<f64> {
 /// [`NOISE_STRETCH`] fitting samples, however few (see [`noise_sample_fraction`], which
 /// asks for enough of them); `None` without one.
 fn free_space_fraction(data: &Prepared) -> Option<f64> {
-    let mut runs: Vec<Vec<f64>> = free_runs(data, 0, NOISE_STRETCH)
+    free_stretches_fraction(&data.force_n, &data.contact).map(|(fraction, _)| fraction)
+}
+
+/// N_eff / N of `force` on its stretches of at least [`NOISE_STRETCH`] samples where
+/// `contact` is false, each detrended, and the samples in those stretches; `None`
+/// without one. (`force` and `contact` per fitting sample, equal lengths.)
+pub(super) fn free_stretches_fraction(force: &[f64], contact: &[bool]) -> Option<(f64, usize)> {
+    let mut runs: Vec<Vec<f64>> = free_runs_in(contact, NOISE_STRETCH)
         .into_iter()
-        .map(|(a, run)| data.force_n[a..a + run].to_vec())
+        .map(|(a, run)| force[a..a + run].to_vec())
         .collect();
     if runs.is_empty() {
         return None;
@@ -282,8 +289,9 @@ fn free_space_fraction(data: &Prepared) -> Option<f64> {
     for r in &mut runs {
         detrend(r);
     }
+    let samples = runs.iter().map(Vec::len).sum();
     let runs: Vec<&[f64]> = runs.iter().map(Vec::as_slice).collect();
-    Some(effective_fraction(&runs))
+    Some((effective_fraction(&runs), samples))
 }
 
 /// Fewest consecutive free fitting samples of a stretch [`noise_sample_fraction`] measures
@@ -372,7 +380,11 @@ pub fn effective_fraction(runs: &[&[f64]]) -> f64 {
 /// The stretches of at least `min_len` consecutive fitting samples out of contact (by the
 /// detector) from `start` on: (first sample − `start`, length).
 pub(super) fn free_runs(data: &Prepared, start: usize, min_len: usize) -> Vec<(usize, usize)> {
-    let contact = &data.contact[start..];
+    free_runs_in(&data.contact[start..], min_len)
+}
+
+/// The stretches of at least `min_len` consecutive `false` in `contact`: (first, length).
+fn free_runs_in(contact: &[bool], min_len: usize) -> Vec<(usize, usize)> {
     let (mut i, mut runs) = (0, Vec::new());
     while i < contact.len() {
         let run = contact[i..].iter().take_while(|c| !**c).count();
