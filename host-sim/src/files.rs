@@ -989,9 +989,14 @@ pub fn prepare_file(
     }
     let kinks = prepared.kinks();
     notes.push(format!(
-        "fitted on {} samples of {:.1} ms (block means of the 1 kHz record){}",
+        "fitted on {} samples of {:.1} ms (block means of the 1 kHz record{}){}",
         prepared.len(),
         1e3 * prepared.dt,
+        prepared.short_contact_s.map_or(String::new(), |c| format!(
+            "; shorter than {:.0} ms where the typical contact lasts {:.0} ms",
+            1e3 * crate::diagnose::data::BLOCK_S,
+            1e3 * c
+        )),
         if kinks > 0 {
             format!(
                 "; {kinks} of them left out of every fit and score, whose rate reads across a \

@@ -472,3 +472,125 @@ fn a_load_cell_zero_that_shifts_late_in_the_free_stretch_is_named_where_it_shift
         run.prepared.dt
     );
 }
+
+/// Driven impacts of 25-60 ms into a Kelvin-Voigt material (the probe cruises in at
+/// 0.08-0.4 m/s, presses 1-2 mm along a half-sine or a parabola and leaves at the same
+/// speed; 12 impacts in 10 s, 2 kHz, AR(1) force noise with ρ = 0.6 and a 16-bit load
+/// cell), a structure the hidden-effect generator never draws: nothing is added and the
+/// law's κ and λ are within 3 % (at 5 ms blocks λ was 4 % off on this seed, and 4-18 % off
+/// with Coulomb friction named in 2 of 5 seeds). Fitted on 5 ms blocks (2-12 per contact, across which
+/// the rate reverses and the damping's step λ·v₀ at impact is a tenth of the force) an
+/// independent generator's clean impacts named Coulomb friction or a power law in 3 of 8
+/// (and in 33 of 114 records of every case, unseen seeds); the fitting samples are now
+/// 1/[`BLOCKS_PER_CONTACT`] of the typical contact.
+///
+/// [`BLOCKS_PER_CONTACT`]: host_sim::diagnose::data::BLOCKS_PER_CONTACT
+#[test]
+fn driven_impacts_are_fitted_on_samples_short_against_their_contacts() {
+    use host_sim::diagnose::catalogue::Param;
+    use rand::{rngs::StdRng, Rng, SeedableRng};
+    use rand_distr::{Distribution, StandardNormal};
+    use std::io::Write;
+    let mut rng = StdRng::seed_from_u64(7);
+    let fs = 2000.0;
+    let dt = 1.0 / fs;
+    let (kappa, lambda, surface_m, tare_n) = (4.0e3, 12.0, 0.04, -3.0);
+    let hover = 3.0e-3;
+    // Position: rest behind the surface, accelerate over hover/2 to v₀, cruise hover/2,
+    // the contact, then the mirror image, a rest of 0.3-0.6 s.
+    let mut position = Vec::new();
+    let mut t = 0.0f64;
+    let rest = |position: &mut Vec<f64>, t: &mut f64, until: f64| {
+        while *t < until {
+            position.push(surface_m - hover);
+            *t += dt;
+        }
+    };
+    rest(&mut position, &mut t, 0.5);
+    for i in 0..12 {
+        let v0: f64 = 0.08 * 5f64.powf(rng.random_range(0.0..1.0));
+        let depth: f64 = rng.random_range(1.0e-3..2.0e-3);
+        let parabolic = i % 2 == 0;
+        let accel_s = hover / v0;
+        let cruise_s = 0.5 * hover / v0;
+        let a_c = v0 * v0 / (2.0 * depth);
+        let contact_s = if parabolic {
+            2.0 * v0 / a_c
+        } else {
+            std::f64::consts::PI * depth / v0
+        };
+        let start = t;
+        let phases = [accel_s, cruise_s, contact_s, cruise_s, accel_s];
+        let end = start + phases.iter().sum::<f64>();
+        while t < end {
+            // The phase the time falls in and the time since it began.
+            let (mut phase, mut s) = (0, t - start);
+            while phase < 4 && s >= phases[phase] {
+                s -= phases[phase];
+                phase += 1;
+            }
+            let x = match phase {
+                0 => -hover + 0.5 * (v0 / accel_s) * s * s,
+                1 => -0.5 * hover + v0 * s,
+                2 if parabolic => v0 * s - 0.5 * a_c * s * s,
+                2 => depth * (std::f64::consts::PI * s / contact_s).sin(),
+                3 => -v0 * s,
+                _ => -0.5 * hover - v0 * s + 0.5 * (v0 / accel_s) * s * s,
+            };
+            position.push(surface_m + x);
+            t += dt;
+        }
+        let until = t + rng.random_range(0.3..0.6);
+        rest(&mut position, &mut t, until);
+    }
+    let n = position.len();
+    let rho = 0.6;
+    let mut ar = 0.0f64;
+    let lsb = 40.0 / 65536.0;
+    let path_dir = tempfile::tempdir().expect("a temporary directory");
+    let path = path_dir.path().join("impacts.csv");
+    let mut file = std::io::BufWriter::new(std::fs::File::create(&path).expect("create"));
+    writeln!(file, "time_s,position_m,force_n").expect("write");
+    for i in 0..n {
+        let depth = position[i] - surface_m;
+        let rate = (position[(i + 1).min(n - 1)] - position[i.saturating_sub(1)])
+            / (((i + 1).min(n - 1) - i.saturating_sub(1)) as f64 * dt);
+        let law = if depth > 0.0 {
+            (kappa * depth + lambda * rate).max(0.0)
+        } else {
+            0.0
+        };
+        let e: f64 = StandardNormal.sample(&mut rng);
+        ar = rho * ar + (1.0 - rho * rho).sqrt() * e;
+        let force = ((tare_n + law + 0.03 * ar) / lsb).round() * lsb;
+        writeln!(file, "{:.7},{:.9},{:.6}", i as f64 * dt, position[i], force).expect("write");
+    }
+    drop(file);
+    let run = diagnose_file(
+        &path,
+        "csv",
+        &Options::default(),
+        &Overrides::default(),
+        None,
+    )
+    .unwrap_or_else(|e| panic!("impacts: {e:#}"));
+    let d = &run.diagnosis;
+    assert!(
+        run.prepared.dt <= 3.0e-3,
+        "fitting samples of {} ms",
+        1e3 * run.prepared.dt
+    );
+    assert!(
+        d.effects_added().is_empty(),
+        "added {:?} ({:?})",
+        d.effects_added(),
+        run.notes
+    );
+    let fit = &d.final_fit;
+    let kappa_fit = fit.parameter(Param::Kappa).expect("κ");
+    let lambda_fit = fit.parameter(Param::Lambda).expect("λ");
+    assert!(
+        (kappa_fit / kappa - 1.0).abs() < 0.03 && (lambda_fit / lambda - 1.0).abs() < 0.03,
+        "κ = {kappa_fit:.4e}, λ = {lambda_fit:.4e}"
+    );
+}
