@@ -482,9 +482,9 @@ fn a_load_cell_zero_that_shifts_late_in_the_free_stretch_is_named_where_it_shift
 /// the rate reverses and the damping's step λ·v₀ at impact is a tenth of the force) an
 /// independent generator's clean impacts named Coulomb friction or a power law in 3 of 8
 /// (and in 33 of 114 records of every case, unseen seeds); the fitting samples are now
-/// 1/[`BLOCKS_PER_CONTACT`] of the typical contact.
+/// 2 ms where the typical contact is at most [`SHORT_CONTACT_S`].
 ///
-/// [`BLOCKS_PER_CONTACT`]: host_sim::diagnose::data::BLOCKS_PER_CONTACT
+/// [`SHORT_CONTACT_S`]: host_sim::diagnose::data::SHORT_CONTACT_S
 #[test]
 fn driven_impacts_are_fitted_on_samples_short_against_their_contacts() {
     use host_sim::diagnose::catalogue::Param;
