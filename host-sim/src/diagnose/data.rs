@@ -453,13 +453,13 @@ fn assemble(
     let native_dt = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let measurement_samples = measurement_samples.max(1);
     let by_time = ((BLOCK_S / native_dt).round() as usize).max(1);
-    let typical = typical_contact_samples(contact).map(|len| len as f64 * native_dt);
-    let by_contact = typical
-        .filter(|c| *c <= SHORT_CONTACT_S)
-        .map(|_| SHORT_BLOCK_SAMPLES);
-    let (base, max_blocks, short_contact_s) = match by_contact {
-        Some(short) if short < by_time => (short, MAX_BLOCKS_SHORT_CONTACTS, typical),
-        _ => (by_time, MAX_BLOCKS, None),
+    let short_contact_s = typical_contact_samples(contact)
+        .map(|len| len as f64 * native_dt)
+        .filter(|c| *c <= SHORT_CONTACT_S && SHORT_BLOCK_SAMPLES < by_time);
+    let (base, max_blocks) = if short_contact_s.is_some() {
+        (SHORT_BLOCK_SAMPLES, MAX_BLOCKS_SHORT_CONTACTS)
+    } else {
+        (by_time, MAX_BLOCKS)
     };
     let block = base
         .max(measurement_samples)
