@@ -473,15 +473,16 @@ fn a_load_cell_zero_that_shifts_late_in_the_free_stretch_is_named_where_it_shift
     );
 }
 
-/// Driven impacts of 25-60 ms into a Kelvin-Voigt material (the probe cruises in at
+/// Driven impacts of 8-100 ms into a Kelvin-Voigt material (the probe cruises in at
 /// 0.08-0.4 m/s, presses 1-2 mm along a half-sine or a parabola and leaves at the same
 /// speed; 12 impacts in 10 s, 2 kHz, AR(1) force noise with ρ = 0.6 and a 16-bit load
 /// cell), a structure the hidden-effect generator never draws: nothing is added and the
-/// law's κ and λ are within 3 % (at 5 ms blocks λ was 4 % off on this seed, and 4-18 % off
-/// with Coulomb friction named in 2 of 5 seeds). Fitted on 5 ms blocks (2-12 per contact, across which
-/// the rate reverses and the damping's step λ·v₀ at impact is a tenth of the force) an
-/// independent generator's clean impacts named Coulomb friction or a power law in 3 of 8
-/// (and in 33 of 114 records of every case, unseen seeds); the fitting samples are now
+/// law's κ and λ are within 3 % (at 5 ms blocks λ was 4 % off on this seed, and 4-18 %
+/// off with Coulomb friction named in 2 of 5 seeds). Fitted on 5 ms blocks (2-12 per
+/// contact, across which the rate reverses and the damping's step λ·v₀ at impact is a
+/// tenth of the force) an independent generator's clean impacts named Coulomb friction
+/// or a power law in 3 of 8 (and in 33 of 114 records of every case, unseen seeds); the
+/// fitting samples are now
 /// 2 ms where the typical contact is at most [`SHORT_CONTACT_S`].
 ///
 /// [`SHORT_CONTACT_S`]: host_sim::diagnose::data::SHORT_CONTACT_S
