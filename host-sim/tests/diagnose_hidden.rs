@@ -595,3 +595,142 @@ fn driven_impacts_are_fitted_on_samples_short_against_their_contacts() {
         "κ = {kappa_fit:.4e}, λ = {lambda_fit:.4e}"
     );
 }
+
+/// A ramp-and-hold log written as a CSV, a structure and a noise the hidden-effect
+/// generator never draws: three presses into a Kelvin-Voigt material (κ = 750 N/m,
+/// λ = 75 N·s/m; 0.5 mm/s to 2 mm, a 12 s hold, out at the same speed, 5 s apart in free
+/// space), 1 kHz, a 16-bit load cell, a 1 µm encoder, and 1/f (pink) force noise of
+/// `sigma_n`: five AR(1) processes of time constants 10 ms to 100 s, one per decade,
+/// equal variance each (equal power per decade). The presses after the first meet the
+/// surface `shift_m` deeper (a later contacts' shift of the contact point, as
+/// `contact_point_offset` names it). Returns the file's path in `dir`.
+fn pink_ramp_and_hold(
+    dir: &std::path::Path,
+    seed: u64,
+    sigma_n: f64,
+    shift_m: f64,
+    presses: usize,
+) -> std::path::PathBuf {
+    use rand::{rngs::StdRng, Rng, SeedableRng};
+    use rand_distr::{Distribution, StandardNormal};
+    use std::io::Write;
+    let mut rng = StdRng::seed_from_u64(seed);
+    let dt = 1.0e-3;
+    let (kappa, lambda, surface_m, tare_n) = (750.0, 75.0, 0.02, 1.2);
+    let (back, depth, speed) = (0.5e-3, 2.0e-3, 0.5e-3);
+    // (position, later contact) per sample.
+    let mut motion: Vec<(f64, bool)> = Vec::new();
+    let hold = |motion: &mut Vec<(f64, bool)>, x: f64, s: f64, later: bool| {
+        motion.extend((0..(s / dt) as usize).map(|_| (x, later)));
+    };
+    let ramp = |motion: &mut Vec<(f64, bool)>, from: f64, to: f64, later: bool| {
+        let steps = ((to - from).abs() / speed / dt) as usize;
+        motion.extend((0..steps).map(|i| (from + (to - from) * i as f64 / steps as f64, later)));
+    };
+    hold(
+        &mut motion,
+        surface_m - back,
+        3.0 + rng.random_range(0.0..1.0),
+        false,
+    );
+    for press in 0..presses {
+        let later = press > 0;
+        ramp(&mut motion, surface_m - back, surface_m + depth, later);
+        hold(&mut motion, surface_m + depth, 12.0, later);
+        ramp(&mut motion, surface_m + depth, surface_m - back, later);
+        hold(
+            &mut motion,
+            surface_m - back,
+            5.0 + rng.random_range(0.0..1.0),
+            later,
+        );
+    }
+    let taus = [0.01, 0.1, 1.0, 10.0, 100.0];
+    let mut states: Vec<f64> = taus
+        .iter()
+        .map(|_| StandardNormal.sample(&mut rng))
+        .collect();
+    let lsb = 40.0 / 65536.0;
+    let path = dir.join(format!("pink-ramp-hold-{seed}.csv"));
+    let mut file = std::io::BufWriter::new(std::fs::File::create(&path).expect("create"));
+    writeln!(file, "time_s,position_m,force_n").expect("write");
+    let n = motion.len();
+    for i in 0..n {
+        let (x, later) = motion[i];
+        let surface = if later {
+            surface_m - shift_m
+        } else {
+            surface_m
+        };
+        let rate = (motion[(i + 1).min(n - 1)].0 - motion[i.saturating_sub(1)].0)
+            / (((i + 1).min(n - 1) - i.saturating_sub(1)) as f64 * dt);
+        let law = if x > surface {
+            (kappa * (x - surface) + lambda * rate).max(0.0)
+        } else {
+            0.0
+        };
+        let mut pink = 0.0;
+        for (state, tau) in states.iter_mut().zip(taus) {
+            let a: f64 = (-dt / tau).exp();
+            let e: f64 = StandardNormal.sample(&mut rng);
+            *state = a * *state + (1.0 - a * a).sqrt() * e;
+            pink += *state;
+        }
+        let force =
+            ((tare_n + law + sigma_n * pink / (taus.len() as f64).sqrt()) / lsb).round() * lsb;
+        let position = (x / 1.0e-6).round() * 1.0e-6;
+        writeln!(file, "{:.3},{position:.6},{force:.6}", i as f64 * dt).expect("write");
+    }
+    path
+}
+
+/// A later contacts' shift of the contact point is not named where it moves their force
+/// by no more than the load cell's zero wanders between free stretches
+/// ([`MIN_SHIFT_OVER_WANDER`]): on two presses under 1/f noise (30 mN, 2 % of the force
+/// range) the slow part of the noise sets the second press's zero apart from the first's,
+/// and a shift of some µm took that up on 11 of 40 seeds (100-139), these three among
+/// them, each with a held-out error better on most folds. A true shift of 0.5 mm (0.38 N,
+/// 12× the noise) on the same records is named, within 10 % (a shift of 0.2 mm is named
+/// too, but the wander enters its estimate: 13 % off on seed 105).
+///
+/// [`MIN_SHIFT_OVER_WANDER`]: host_sim::diagnose::scoring::MIN_SHIFT_OVER_WANDER
+#[test]
+fn a_contact_shift_within_the_zero_wander_of_pink_noise_is_not_named() {
+    use host_sim::diagnose::catalogue::Param;
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    for seed in [105, 107, 137] {
+        for shift_m in [0.0, 5.0e-4] {
+            let path = pink_ramp_and_hold(dir.path(), seed, 0.03, shift_m, 2);
+            let run = diagnose_file(
+                &path,
+                "csv",
+                &Options::default(),
+                &Overrides::default(),
+                None,
+            )
+            .unwrap_or_else(|e| panic!("seed {seed}: {e:#}"));
+            let d = &run.diagnosis;
+            if shift_m == 0.0 {
+                assert!(
+                    d.effects_added().is_empty(),
+                    "seed {seed}, no shift: added {:?}",
+                    d.effects_added()
+                );
+                continue;
+            }
+            assert_eq!(
+                d.effects_added(),
+                [Effect::ContactPointOffset.id()],
+                "seed {seed}, a shift of {shift_m} m"
+            );
+            let fitted = d
+                .final_fit
+                .parameter(Param::ContactShiftM)
+                .expect("the shift's parameter");
+            assert!(
+                (fitted.abs() / shift_m - 1.0).abs() < 0.1,
+                "seed {seed}: a shift of {fitted} m, truly {shift_m} m"
+            );
+        }
+    }
+}

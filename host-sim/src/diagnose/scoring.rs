@@ -499,6 +499,44 @@ pub fn free_space_trend(
     Some((slope, slope / se))
 }
 
+/// How far the load cell's zero wanders between the record's free stretches \[N\]: the
+/// standard deviation of `fit`'s residual means over its free stretches of at least
+/// [`NOISE_STRETCH`] fitting samples from `fit.start` on (the free space shows the zero
+/// alone, whatever the model does in contact). `None` with fewer than two stretches.
+///
+/// White noise averages out of a stretch's mean; a coloured one, 1/f above all, does not:
+/// its slow part moves the zero between stretches, and by as much between contacts.
+pub fn free_space_wander(data: &Prepared, fit: &Fit) -> Option<f64> {
+    let residual = fit.residual(data);
+    let means: Vec<f64> = free_runs(data, fit.start, NOISE_STRETCH)
+        .iter()
+        .map(|&(i, run)| residual[i..i + run].iter().sum::<f64>() / run as f64)
+        .collect();
+    if means.len() < 2 {
+        return None;
+    }
+    let mean = means.iter().sum::<f64>() / means.len() as f64;
+    let ss: f64 = means.iter().map(|m| (m - mean).powi(2)).sum();
+    Some((ss / (means.len() - 1) as f64).sqrt())
+}
+
+/// The RMS \[N\] over the in-contact fitting samples of the difference between the forces
+/// two fits predict: how much force one moves against the other where the probe touches.
+pub fn contact_change_rms(data: &Prepared, a: &Fit, b: &Fit) -> f64 {
+    let start = a.start.max(b.start);
+    let (ss, n) = (start..data.len())
+        .filter(|&i| data.contact[i])
+        .map(|i| a.prediction[i - a.start] - b.prediction[i - b.start])
+        .fold((0.0, 0usize), |(ss, n), d| (ss + d * d, n + 1));
+    (ss / n.max(1) as f64).sqrt()
+}
+
+/// A later contacts' shift of the contact point moves their force by less than this many
+/// times the zero's wander between free stretches ([`free_space_wander`]) is not told
+/// from that wander: one standard deviation (the shift's force no larger than the zero
+/// moves by itself).
+pub const MIN_SHIFT_OVER_WANDER: f64 = 1.0;
+
 #[allow(clippy::too_many_arguments)]
 pub(super) fn score(
     effect: Effect,
@@ -556,6 +594,7 @@ pub(super) fn score(
         physical: is_physical,
         nested,
         unseen_in_free_space: false,
+        within_zero_wander: false,
         unseen_at_contact_edges: false,
         a_damping_change_in_contact: false,
         under_half_a_sample: false,
