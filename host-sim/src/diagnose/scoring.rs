@@ -531,10 +531,10 @@ pub fn contact_change_rms(data: &Prepared, a: &Fit, b: &Fit) -> f64 {
     (ss / n.max(1) as f64).sqrt()
 }
 
-/// A later contacts' shift of the contact point moves their force by less than this many
-/// times the zero's wander between free stretches ([`free_space_wander`]) is not told
-/// from that wander: one standard deviation (the shift's force no larger than the zero
-/// moves by itself).
+/// A later contacts' shift of the contact point that moves their force (RMS over the
+/// contact samples, [`contact_change_rms`]) by no more than this many times the zero's
+/// wander between free stretches ([`free_space_wander`]) is not told from that wander:
+/// one standard deviation (the shift's force no larger than the zero moves by itself).
 pub const MIN_SHIFT_OVER_WANDER: f64 = 1.0;
 
 #[allow(clippy::too_many_arguments)]
@@ -687,6 +687,57 @@ mod tests {
         assert!(!physical(&fit(1.4e-4, 0.0246, -0.37), 12.0));
         assert!(physical(&fit(1.4e-4, 0.0246, -0.005), 12.0));
         assert!(physical(&fit(0.44, 1.8, -2.4), 12.0));
+    }
+
+    /// The zero's wander is the spread of the residual's means over the free stretches
+    /// (here levels 0.01, −0.01 and 0 N about the model: 0.01 N), whatever the residual
+    /// does in contact; a fit that moves the contact force by 0.02 N against another
+    /// moves it by 0.02 N RMS, and by nothing where the probe is free.
+    #[test]
+    fn the_zero_wanders_by_the_spread_of_the_free_stretch_means() {
+        use super::super::catalogue::Nonlinear;
+        // Free 1 s, pressed 1 mm for 2 s, free 1 s, pressed, free 1 s.
+        let data = log(7.0, |t| {
+            if (1.0..3.0).contains(&t) || (4.0..6.0).contains(&t) {
+                1e-3
+            } else {
+                -1e-3
+            }
+        });
+        let stretches = free_runs(&data, 0, NOISE_STRETCH);
+        assert_eq!(stretches.len(), 3, "{stretches:?}");
+        let level = |i: usize| match stretches.iter().position(|&(a, n)| (a..a + n).contains(&i)) {
+            Some(0) => 0.01,
+            Some(1) => -0.01,
+            _ => 0.0,
+        };
+        let fit = |shift: f64, levels: bool| Fit {
+            effects: Vec::new(),
+            nonlinear: Nonlinear::default(),
+            parameters: Vec::new(),
+            rss: 1.0,
+            samples: data.len(),
+            nrmse_percent: 1.0,
+            vaf_percent: 99.0,
+            bic: 0.0,
+            free_parameters: 2,
+            cv_rmse_per_fold: vec![1.0; FOLDS],
+            cv_rmse: 1.0,
+            residual_sample_fraction: 1.0,
+            damping_combination_se: f64::NAN,
+            prediction: (0..data.len())
+                .map(|i| {
+                    let pressed = if data.contact[i] { shift } else { 0.0 };
+                    data.force_n[i] + pressed - if levels { level(i) } else { 0.0 }
+                })
+                .collect(),
+            start: 0,
+        };
+        let wander = free_space_wander(&data, &fit(0.0, true)).expect("three stretches");
+        assert!((wander - 0.01).abs() < 1e-12, "{wander}");
+        assert_eq!(free_space_wander(&data, &fit(0.0, false)), Some(0.0));
+        let moved = contact_change_rms(&data, &fit(0.02, true), &fit(0.0, true));
+        assert!((moved - 0.02).abs() < 1e-12, "{moved}");
     }
 
     /// White noise counts about every sample; AR(1) noise with φ = 0.8 fewer than a
