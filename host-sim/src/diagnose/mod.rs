@@ -560,9 +560,6 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
     let free_trend = free_space_trend(data, data.fit_start(), noise_fraction);
     let mut final_candidates = Vec::new();
     for _ in 0..options.max_steps {
-        // The zero's wander between free stretches about the current model, for every
-        // `contact_point_offset` candidate of the step.
-        let wander = scoring::free_space_wander(data, &current);
         // Every absent effect; one that replaces the same model piece as a present one
         // (power law ↔ exponential) is tried as a swap: an early choice made while
         // another effect was still missing can be revised.
@@ -739,8 +736,11 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 scored.significant = false;
                 scored.under_half_a_sample = true;
             }
+            // (The wander about the shifted fit: about a model without a true shift, the
+            // later contacts' force reaches into samples the detector calls free, and
+            // their means scatter by the shift's own footprint.)
             if e == Effect::ContactPointOffset
-                && wander.is_some_and(|w| {
+                && scoring::free_space_wander(data, &scored.fit, noise_fraction).is_some_and(|w| {
                     scoring::contact_change_rms(data, &scored.fit, &current)
                         <= MIN_SHIFT_OVER_WANDER * w
                 })

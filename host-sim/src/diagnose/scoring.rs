@@ -500,24 +500,38 @@ pub fn free_space_trend(
 }
 
 /// How far the load cell's zero wanders between the record's free stretches \[N\]: the
-/// standard deviation of `fit`'s residual means over its free stretches of at least
-/// [`NOISE_STRETCH`] fitting samples from `fit.start` on (the free space shows the zero
-/// alone, whatever the model does in contact). `None` with fewer than two stretches.
+/// spread of `fit`'s residual means over its free stretches of at least [`NOISE_STRETCH`]
+/// fitting samples from `fit.start` on (the free space shows the zero alone, whatever
+/// the model does in contact), beyond what each mean's own noise explains: the square
+/// root of the means' variance less the mean noise variance of a stretch's mean, s²/(n·f)
+/// (s² the stretch's scatter about its mean, n its samples, f the noise's N_eff/N,
+/// `noise_fraction`, 1 where unknown), as a one-way random-effects analysis of variance
+/// splits the between-groups part; 0 where the means scatter no more than that. `None`
+/// with fewer than two stretches.
 ///
-/// White noise averages out of a stretch's mean; a coloured one, 1/f above all, does not:
-/// its slow part moves the zero between stretches, and by as much between contacts.
-pub fn free_space_wander(data: &Prepared, fit: &Fit) -> Option<f64> {
+/// White noise averages out of a stretch's mean, and the wander is then about 0; a
+/// coloured one, 1/f above all, does not: its slow part moves the zero between stretches,
+/// and by as much between contacts.
+pub fn free_space_wander(data: &Prepared, fit: &Fit, noise_fraction: Option<f64>) -> Option<f64> {
     let residual = fit.residual(data);
-    let means: Vec<f64> = free_runs(data, fit.start, NOISE_STRETCH)
+    let f = noise_fraction.unwrap_or(1.0);
+    let stretches: Vec<(f64, f64)> = free_runs(data, fit.start, NOISE_STRETCH)
         .iter()
-        .map(|&(i, run)| residual[i..i + run].iter().sum::<f64>() / run as f64)
+        .map(|&(i, run)| {
+            let r = &residual[i..i + run];
+            let mean = r.iter().sum::<f64>() / run as f64;
+            let scatter = r.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (run - 1) as f64;
+            (mean, scatter / (run as f64 * f))
+        })
         .collect();
-    if means.len() < 2 {
+    if stretches.len() < 2 {
         return None;
     }
-    let mean = means.iter().sum::<f64>() / means.len() as f64;
-    let ss: f64 = means.iter().map(|m| (m - mean).powi(2)).sum();
-    Some((ss / (means.len() - 1) as f64).sqrt())
+    let k = stretches.len() as f64;
+    let mean = stretches.iter().map(|s| s.0).sum::<f64>() / k;
+    let between = stretches.iter().map(|s| (s.0 - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    let own = stretches.iter().map(|s| s.1).sum::<f64>() / k;
+    Some((between - own).max(0.0).sqrt())
 }
 
 /// The RMS \[N\] over the in-contact fitting samples of the difference between the forces
@@ -733,9 +747,9 @@ mod tests {
                 .collect(),
             start: 0,
         };
-        let wander = free_space_wander(&data, &fit(0.0, true)).expect("three stretches");
+        let wander = free_space_wander(&data, &fit(0.0, true), None).expect("three stretches");
         assert!((wander - 0.01).abs() < 1e-12, "{wander}");
-        assert_eq!(free_space_wander(&data, &fit(0.0, false)), Some(0.0));
+        assert_eq!(free_space_wander(&data, &fit(0.0, false), None), Some(0.0));
         let moved = contact_change_rms(&data, &fit(0.02, true), &fit(0.0, true));
         assert!((moved - 0.02).abs() < 1e-12, "{moved}");
     }
