@@ -53,7 +53,8 @@ pub fn contact_model(
 
 /// Simulated force \[N\] for each (depth \[m\], depth rate \[m/s\]); the model restarts from
 /// rest whenever `in_contact` goes from false to true (a new contact). Out of contact
-/// the model still advances (relaxation continues) but its force is reported as 0.
+/// the force is 0 and the model is not stepped (it restarts from rest at the next onset:
+/// nothing it would do there reaches an output).
 ///
 /// Each contact starts the model from rest, so the contacts are independent: they are
 /// simulated in parallel, each stretch from an onset to the next with a model of its own
@@ -93,12 +94,15 @@ pub fn simulate_force(
         let mut was_in_contact = false;
         for (k, out) in stretch.iter_mut().enumerate() {
             let i = start + k;
-            if in_contact[i] && !was_in_contact {
+            if !in_contact[i] {
+                was_in_contact = false;
+                continue;
+            }
+            if !was_in_contact {
                 model.reset();
             }
-            was_in_contact = in_contact[i];
-            let f = model.step(depth_m[i] as f32, rate_m_per_s[i] as f32);
-            *out = if in_contact[i] { f64::from(f) } else { 0.0 };
+            was_in_contact = true;
+            *out = f64::from(model.step(depth_m[i] as f32, rate_m_per_s[i] as f32));
         }
     });
     Some(out)
