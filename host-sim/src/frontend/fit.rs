@@ -1026,6 +1026,10 @@ impl<'a> Problem<'a> {
     /// [`TOLERANCE`]; twice for the relaxation laws), each kept only if it beats its grid
     /// point.
     pub fn fit(&self) -> Option<LawFit> {
+        // (No law through fewer than two points; the rate range and the grid need two.)
+        if self.u.len() < 2 || self.t.len() < 2 {
+            return None;
+        }
         let (lo, hi) = min_max(&self.u);
         let span = hi - lo;
         let (a, b) = (lo - 3.0 * span, hi - 0.02 * span);
@@ -1560,5 +1564,20 @@ mod tests {
         // A smooth minimum is located to about √ε relative, whatever the iterations.
         let (x, f) = golden(-3.0, 5.0, 60, |x| (x - 1.25) * (x - 1.25) + 2.0);
         assert!((x - 1.25).abs() < 1e-7 && (f - 2.0).abs() < 1e-12);
+    }
+
+    /// A law is not fitted through fewer than two points: `None`, not a panic (the
+    /// loading-curve subset of some generated Instron-style compressions was empty, and
+    /// the relaxation rate's range indexed its second time).
+    #[test]
+    fn no_law_through_fewer_than_two_points() {
+        let s = record(1.0, 0.0);
+        for keep in [0, 1] {
+            let subset = s.subset(&(0..8000).map(|i| i < keep).collect::<Vec<_>>());
+            for family in [LawFamily::HuntCrossley, LawFamily::KelvinVoigt] {
+                let fit = Problem::new(&subset, 1.0, family, OffsetTerm::Free).fit();
+                assert!(fit.is_none(), "{keep} point(s)");
+            }
+        }
     }
 }
