@@ -53,8 +53,14 @@ fn diagnose_as_a_user(
 ) -> FileDiagnosis {
     let path = dir.join("log.csv");
     write_simulated_log(&path, &g.log).expect("write the log");
+    diagnose_csv(&path, what)
+}
+
+/// The CSV file at `path` diagnosed as `host-sim diagnose` diagnoses it (default
+/// options); panics naming `what` if it cannot be.
+fn diagnose_csv(path: &std::path::Path, what: &str) -> FileDiagnosis {
     diagnose_file(
-        &path,
+        path,
         "csv",
         &Options::default(),
         &Overrides::default(),
@@ -567,14 +573,7 @@ fn driven_impacts_are_fitted_on_samples_short_against_their_contacts() {
         writeln!(file, "{:.7},{:.9},{:.6}", i as f64 * dt, position[i], force).expect("write");
     }
     drop(file);
-    let run = diagnose_file(
-        &path,
-        "csv",
-        &Options::default(),
-        &Overrides::default(),
-        None,
-    )
-    .unwrap_or_else(|e| panic!("impacts: {e:#}"));
+    let run = diagnose_csv(&path, "impacts");
     let d = &run.diagnosis;
     assert!(
         run.prepared.dt <= 3.0e-3,
@@ -701,14 +700,7 @@ fn a_contact_shift_within_the_zero_wander_of_pink_noise_is_not_named() {
     for seed in [105, 107, 137] {
         for shift_m in [0.0, 5.0e-4] {
             let path = pink_ramp_and_hold(dir.path(), seed, 0.03, shift_m, 2);
-            let run = diagnose_file(
-                &path,
-                "csv",
-                &Options::default(),
-                &Overrides::default(),
-                None,
-            )
-            .unwrap_or_else(|e| panic!("seed {seed}: {e:#}"));
+            let run = diagnose_csv(&path, &format!("seed {seed}"));
             let d = &run.diagnosis;
             if shift_m == 0.0 {
                 assert!(
