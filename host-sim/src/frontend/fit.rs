@@ -1026,8 +1026,9 @@ impl<'a> Problem<'a> {
     /// [`TOLERANCE`]; twice for the relaxation laws), each kept only if it beats its grid
     /// point.
     pub fn fit(&self) -> Option<LawFit> {
-        // (No law through fewer than two points; the rate range and the grid need two.)
-        if self.u.len() < 2 || self.t.len() < 2 {
+        // (No law through fewer than two points, `u` and `t` one per point; the rate
+        // range and the grid need two.)
+        if self.u.len() < 2 {
             return None;
         }
         let (lo, hi) = min_max(&self.u);
