@@ -55,8 +55,9 @@ impl Loaded {
     /// negative), 1 keeps it; either is noted. `None`: the record is fitted as read, and
     /// where that fails or the fitted law's RMS residual leaves more than
     /// [`FORCE_SIGN_CHECK_UNEXPLAINED`] of the force's variance, or where its offset was
-    /// held below 0 (a record read as never leaving contact, offset at the force's lowest
-    /// level: a compression-negative tap record fits so on the reversed axis), the negated
+    /// held below 0 by more than the noise allows ([`HELD_BELOW_ZERO_NOISE_FACTOR`]: a
+    /// record read as never leaving contact, offset at the force's lowest level: a
+    /// compression-negative tap record fits so on the reversed axis), the negated
     /// force is fitted too. It is taken, with a note, where its law fits the whole record (not the
     /// loading curve alone, [`FrontEnd::loading_only`]: a subset's RMS residual is not the
     /// record's), leaves at most that share of the variance itself, and either the force as read fits
@@ -89,10 +90,13 @@ impl Loaded {
         // An offset held below 0 (the force's lowest level, where the record never leaves
         // contact) lets a law fit a compression-negative record on the reversed axis; the
         // negated force is compared with it before it is taken, unless the lowest level is
-        // within the noise of 0 ([`HELD_BELOW_ZERO_NOISE_FACTOR`]).
+        // within the noise of 0 ([`HELD_BELOW_ZERO_NOISE_FACTOR`]); the noise from the
+        // force's second differences, not the fit's residual, which counts a misfit of the
+        // record as read as noise.
         let held_below_zero = as_read.as_ref().is_ok_and(|f| {
             matches!(f.offset, frontend::OffsetSource::NotIdentifiable { .. })
-                && f.force_offset_n < -HELD_BELOW_ZERO_NOISE_FACTOR * f.noise_n
+                && f.force_offset_n
+                    < -HELD_BELOW_ZERO_NOISE_FACTOR * f.point_noise_from_differences_n()
         });
         if as_read_rms.is_some_and(explains) && !held_below_zero {
             return as_read;
@@ -159,16 +163,18 @@ impl Loaded {
 /// taps).
 pub const FORCE_SIGN_CHECK_UNEXPLAINED: f64 = 0.5;
 
-/// How many force noise levels ([`FrontEnd::noise_n`]) below 0 an offset held at the
-/// force's lowest level must lie for [`Loaded::with_force_sign_of`] to fit the negated
-/// force beside a law that explains the force as read. A compression-negative record read
-/// as it is holds its offset at its deepest contact's force, tare and contact force
-/// together (the 2 Hz taps of the test `a_compression_negative_force_is_negated_given_or_detected`:
-/// −3.3 N, 69 noise levels); a compression that starts at its zero dips below it by the
-/// noise of its first samples (the lowest of thousands of samples lies some 4 noise levels
-/// below their mean; 78 of `bench/make_instron.py`'s 200 files are held below 0, by at
-/// most 2.6 noise levels) and was fitted twice over for that, every law family of
-/// `diagnose` again on the negated force (half of such a file's time) to be rejected.
+/// How many noise levels of a fitted point
+/// ([`FrontEnd::point_noise_from_differences_n`]) below 0 an
+/// offset held at the force's lowest level must lie for [`Loaded::with_force_sign_of`] to
+/// fit the negated force beside a law that explains the force as read. A
+/// compression-negative record read as it is holds its offset at its deepest contact's
+/// force, tare and contact force together (the 2 Hz taps of the test
+/// `a_compression_negative_force_is_negated_given_or_detected`: −3.3 N, 530 noise
+/// levels); a compression that starts at its zero holds it at the lowest of its first,
+/// near-zero points, below the zero by their noise (78 of `bench/make_instron.py`'s 200
+/// files are held below 0, by at most 2.6 noise levels), and was fitted twice over for
+/// that, every law family of `diagnose` again on the negated force (half of such a file's
+/// time) to be rejected.
 pub const HELD_BELOW_ZERO_NOISE_FACTOR: f64 = 10.0;
 
 /// How many times smaller the negated force's RMS residual must be than the force's as
@@ -1102,9 +1108,10 @@ mod tests {
     use crate::record::Format;
     use std::cell::Cell;
 
-    /// A compression at 10 mm/min from its zero into a power law, never out of contact,
-    /// sampled at 10 Hz with a ±`noise_n` deterministic wobble about a zero `tare_n` (its
-    /// first samples dip below 0), the force multiplied by `force_sign`.
+    /// A compression at 10 mm/min into a power law, never out of contact, sampled at
+    /// 10 Hz: a load cell zeroed `tare_n` off and a ±`noise_n` deterministic wobble (with a
+    /// small negative `tare_n`, the first samples lie below 0), the force multiplied by
+    /// `force_sign`.
     fn compression(tare_n: f64, noise_n: f64, force_sign: f64) -> Loaded {
         let n = 1201;
         let time_s: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
@@ -1162,15 +1169,39 @@ mod tests {
             front.offset
         );
         assert!(front.force_offset_n < 0.0, "{}", front.force_offset_n);
+        let point_noise_n = front.point_noise_from_differences_n();
         assert!(
-            front.force_offset_n > -HELD_BELOW_ZERO_NOISE_FACTOR * front.noise_n,
+            front.force_offset_n > -HELD_BELOW_ZERO_NOISE_FACTOR * point_noise_n,
             "{} {}",
             front.force_offset_n,
-            front.noise_n
+            point_noise_n
         );
         assert_eq!(fits, 1);
 
+        // Read as it is, the compression-negative record fits a law held at its deepest
+        // force, far below the noise: the held offset, not a misfit, asks for the negated
+        // force.
         let mut negative = compression(-0.015, 0.02, -1.0);
+        let r = &negative.native;
+        let as_read = frontend::analyse(
+            &r.time_s,
+            &r.position_m,
+            &r.force_n,
+            LawFamily::HuntCrossley,
+            &Options::default(),
+        )
+        .unwrap();
+        let point_noise_n = as_read.point_noise_from_differences_n();
+        assert!(
+            matches!(
+                as_read.offset,
+                frontend::OffsetSource::NotIdentifiable { .. }
+            ) && as_read.force_offset_n < -HELD_BELOW_ZERO_NOISE_FACTOR * point_noise_n,
+            "{:?} {} {}",
+            as_read.offset,
+            as_read.force_offset_n,
+            point_noise_n
+        );
         let (front, fits) = fit_counting(&mut negative);
         assert_eq!(fits, 2);
         let front = front.unwrap();

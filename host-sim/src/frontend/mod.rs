@@ -178,6 +178,13 @@ impl FrontEnd {
         matches!(self.offset, OffsetSource::FreeSpace { .. })
     }
 
+    /// Noise of a fitted point \[N\] from the force's second differences alone
+    /// ([`FrontEnd::sample_noise_n`] over the square root of the points' averaging): unlike
+    /// [`FrontEnd::noise_n`], not raised by a law that misfits the record.
+    pub fn point_noise_from_differences_n(&self) -> f64 {
+        self.sample_noise_n / (self.series.averaged as f64).sqrt()
+    }
+
     /// Penetration δ \[m\] of a raw position \[m\] (negative behind the contact point).
     pub fn depth_m(&self, position_m: f64) -> f64 {
         self.position_sign * position_m - self.law.contact_m
