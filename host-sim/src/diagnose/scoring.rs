@@ -383,6 +383,32 @@ pub(super) fn free_runs(data: &Prepared, start: usize, min_len: usize) -> Vec<(u
     free_runs_in(&data.contact[start..], min_len)
 }
 
+/// A free stretch of a series ([`free_runs`]): its first index and length, its mean and
+/// the sum of squares about that mean.
+struct Stretch {
+    first: usize,
+    len: usize,
+    mean: f64,
+    ss: f64,
+}
+
+/// The [`Stretch`] of `values` over each of `runs` ((first, length), as [`free_runs`]).
+fn stretches(values: &[f64], runs: &[(usize, usize)]) -> Vec<Stretch> {
+    runs.iter()
+        .map(|&(first, len)| {
+            let r = &values[first..first + len];
+            let mean = r.iter().sum::<f64>() / len as f64;
+            let ss = r.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+            Stretch {
+                first,
+                len,
+                mean,
+                ss,
+            }
+        })
+        .collect()
+}
+
 /// The stretches of at least `min_len` consecutive `false` in `contact`: (first, length).
 fn free_runs_in(contact: &[bool], min_len: usize) -> Vec<(usize, usize)> {
     let (mut i, mut runs) = (0, Vec::new());
@@ -456,20 +482,18 @@ pub fn free_space_trend(
     // The fitting samples' own scatter about each stretch's mean, pooled: the noise of a
     // fitting sample as the record has it (block means of coloured noise are noisier than
     // `data.noise_n`'s white-noise scaling).
-    let runs = free_runs(data, start, super::MIN_FREE_STRETCH);
-    let mean = |(i, run): (usize, usize)| r[i..i + run].iter().sum::<f64>() / run as f64;
-    let (ss, dof) = runs.iter().fold((0.0, 0usize), |(ss, dof), &(i, run)| {
-        let m = mean((i, run));
-        let s: f64 = r[i..i + run].iter().map(|v| (v - m).powi(2)).sum();
-        (ss + s, dof + run - 1)
-    });
+    let runs = stretches(r, &free_runs(data, start, super::MIN_FREE_STRETCH));
+    let (ss, dof) = runs
+        .iter()
+        .fold((0.0, 0usize), |(ss, dof), s| (ss + s.ss, dof + s.len - 1));
     let sample_var = (ss / dof.max(1) as f64).max(data.noise_n.powi(2));
     let means: Vec<(f64, f64, f64)> = runs
         .iter()
-        .map(|&(i, run)| {
+        .map(|s| {
+            let (i, run) = (s.first, s.len);
             let t = data.time_s[start + i..start + i + run].iter().sum::<f64>() / run as f64;
             let var = sample_var / (run as f64 * noise_fraction.unwrap_or(1.0));
-            (t, mean((i, run)), 1.0 / var.max(f64::MIN_POSITIVE))
+            (t, s.mean, 1.0 / var.max(f64::MIN_POSITIVE))
         })
         .collect();
     if means.len() < 2 {
@@ -515,22 +539,20 @@ pub fn free_space_trend(
 pub fn free_space_wander(data: &Prepared, fit: &Fit, noise_fraction: Option<f64>) -> Option<f64> {
     let residual = fit.residual(data);
     let f = noise_fraction.unwrap_or(1.0);
-    let stretches: Vec<(f64, f64)> = free_runs(data, fit.start, NOISE_STRETCH)
+    let means: Vec<(f64, f64)> = stretches(&residual, &free_runs(data, fit.start, NOISE_STRETCH))
         .iter()
-        .map(|&(i, run)| {
-            let r = &residual[i..i + run];
-            let mean = r.iter().sum::<f64>() / run as f64;
-            let scatter = r.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (run - 1) as f64;
-            (mean, scatter / (run as f64 * f))
+        .map(|s| {
+            let scatter = s.ss / (s.len - 1) as f64;
+            (s.mean, scatter / (s.len as f64 * f))
         })
         .collect();
-    if stretches.len() < 2 {
+    if means.len() < 2 {
         return None;
     }
-    let k = stretches.len() as f64;
-    let mean = stretches.iter().map(|s| s.0).sum::<f64>() / k;
-    let between = stretches.iter().map(|s| (s.0 - mean).powi(2)).sum::<f64>() / (k - 1.0);
-    let own = stretches.iter().map(|s| s.1).sum::<f64>() / k;
+    let k = means.len() as f64;
+    let mean = means.iter().map(|s| s.0).sum::<f64>() / k;
+    let between = means.iter().map(|s| (s.0 - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    let own = means.iter().map(|s| s.1).sum::<f64>() / k;
     Some((between - own).max(0.0).sqrt())
 }
 
