@@ -87,7 +87,7 @@ pub(super) fn cross_validate(
             }
             let solve = match unseen_start {
                 Some(j) => {
-                    least_squares(&without_column(design, j), y, Some(&train), &[]).map(|mut s| {
+                    least_squares(&design.without_column(j), y, Some(&train), &[]).map(|mut s| {
                         s.beta.insert(j, 0.0);
                         s
                     })
@@ -133,26 +133,6 @@ pub(super) fn cross_validate(
             (e / held.len().max(1) as f64).sqrt()
         })
         .collect()
-}
-
-/// `design` without its column `j`.
-fn without_column(design: &Design, j: usize) -> Design {
-    let keep = |v: usize| v != j;
-    Design {
-        names: (design.names.iter().enumerate())
-            .filter(|(v, _)| keep(*v))
-            .map(|(_, c)| *c)
-            .collect(),
-        columns: (design.columns.iter().enumerate())
-            .filter(|(v, _)| keep(*v))
-            .map(|(_, c)| c.clone())
-            .collect(),
-        material: (design.material.iter().enumerate())
-            .filter(|(v, _)| keep(*v))
-            .map(|(_, m)| *m)
-            .collect(),
-        gate: design.gate.clone(),
-    }
 }
 
 /// A fold "moves" when its in-contact Σδ̇² is at least this share of the folds' mean
@@ -834,6 +814,7 @@ mod tests {
             material: vec![false; columns.len()],
             gate: vec![true; n],
             columns,
+            edges: Vec::new(),
         }
     }
 

@@ -309,7 +309,7 @@ fn evaluate(
 ) -> Option<(f64, Design, Solve, Vec<f64>)> {
     let n = data.len() - start;
     let y = &data.force_n[start..];
-    let full = design(data, start, effects, nl, scale);
+    let mut full = design(data, start, effects, nl, scale);
     // The iteration starts with the samples within 3 noise levels of zero separated, the
     // noise that of a block mean of independent 1 kHz samples (exactly so when the block
     // is a whole number of measurements; for a resampled log lower
@@ -333,11 +333,33 @@ fn evaluate(
     let block = data.block.max(1);
     let counted = data.counted_from(start);
     let mut result = None;
+    // A contact's last fitting samples: their rows with the raw samples that pull left
+    // out (`Design::clip_edge`), from the previous solve's coefficients, in touch.
+    let mut edge_rows: Vec<(usize, Vec<f64>)> = Vec::new();
     for _ in 0..iterations.max(1) {
+        for (row, values) in edge_rows.drain(..) {
+            for (c, v) in values.into_iter().enumerate() {
+                if full.material[c] {
+                    full.columns[c][row] = v;
+                }
+            }
+        }
         let s = least_squares(&full, y, counted.as_deref(), &touch)?;
         let m = full.sums(&s.beta, true);
-        let next: Vec<f64> = (0..n).map(|i| touch_weight(&full, &m, i, block)).collect();
-        let done = next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
+        let mut next: Vec<f64> = (0..n).map(|i| touch_weight(&full, &m, i, block)).collect();
+        for edge in &full.edges {
+            next[edge.row] = 1.0;
+            let values = full
+                .clip_edge(edge, &s.beta)
+                .map_or_else(|| edge.built.clone(), |(values, _)| values);
+            let moved = (0..values.len())
+                .any(|c| full.material[c] && values[c] != full.columns[c][edge.row]);
+            if moved {
+                edge_rows.push((edge.row, values));
+            }
+        }
+        let done =
+            edge_rows.is_empty() && next.iter().zip(&touch).all(|(a, b)| (a - b).abs() < 1e-3);
         result = Some((s.rss, s, touch));
         touch = next;
         if done {
