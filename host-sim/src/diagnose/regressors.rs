@@ -968,19 +968,15 @@ mod tests {
         let data = prepare_known(&t, &x, &force, 0.0, 0.0, 1e-3, 1).expect("prepared");
         assert!(data.block > 1, "{}", data.block);
         let effects = BTreeSet::new();
-        let predicted = predict(&data, &effects, &Nonlinear::default(), |c| match c {
+        let truth = |c: Column| match c {
             Column::Elastic => kappa,
             Column::Damping => lambda,
             _ => 0.0,
-        });
+        };
+        let nl = Nonlinear::default();
+        let predicted = predict(&data, &effects, &nl, truth);
         let start = data.fit_start();
-        let d = design(
-            &data,
-            start,
-            &effects,
-            &Nonlinear::default(),
-            &Scales::of(&data),
-        );
+        let d = design(&data, start, &effects, &nl, &Scales::of(&data));
         assert!(d.edges.len() >= 40, "{} edge rows", d.edges.len());
         let worst = d
             .edges
@@ -989,15 +985,7 @@ mod tests {
             .fold(0.0f64, f64::max);
         // The block's own mean force clipped (`touch_weight`, the force linear through
         // its neighbours), as before these rows: how far off that is here.
-        let beta: Vec<f64> = d
-            .names
-            .iter()
-            .map(|c| match c {
-                Column::Elastic => kappa,
-                Column::Damping => lambda,
-                _ => 0.0,
-            })
-            .collect();
+        let beta: Vec<f64> = d.names.iter().map(|c| truth(*c)).collect();
         let m = d.sums(&beta, true);
         let block_clipped = d
             .edges
