@@ -633,8 +633,10 @@ pub(super) fn design(
             }
             sum.map(|s| s / block as f64)
         };
+        // (A straddling block's raw terms, kept where it is an edge row: `EdgeRow`.)
+        let mut raw = Vec::new();
         let [g, e, dv, c, de, a] = if block > 1 && (straddles || kinked) {
-            let mut t = sampled(None);
+            let mut t = sampled(straddles.then_some(&mut raw));
             if shift != 0.0 {
                 // A delayed model's block keeps its own acceleration times its fraction in
                 // contact: with the acceleration of each delayed sample, a mass took up
@@ -674,8 +676,9 @@ pub(super) fn design(
             terms(de, v, series(2, i))
         };
         if block > 1 && g > 0.0 && (straddles || next_straddles) {
-            let mut raw = Vec::with_capacity(block);
-            sampled(Some(&mut raw));
+            if raw.is_empty() {
+                sampled(Some(&mut raw));
+            }
             edge_raw.push((i, raw, series(2, i)));
         }
         gate.push(g > 0.0);

@@ -182,7 +182,7 @@ impl FrontEnd {
     /// ([`FrontEnd::sample_noise_n`] over the square root of the points' averaging): unlike
     /// [`FrontEnd::noise_n`], not raised by a law that misfits the record.
     pub fn point_noise_from_differences_n(&self) -> f64 {
-        self.sample_noise_n / (self.series.averaged as f64).sqrt()
+        self.series.point_noise_n(self.sample_noise_n)
     }
 
     /// Penetration δ \[m\] of a raw position \[m\] (negative behind the contact point).
@@ -385,7 +385,7 @@ pub fn analyse_oriented(
         (None, None) => vec![1.0, -1.0],
     };
     let sample_noise_n = crate::setup::noise_level(force_n);
-    let noise_n = sample_noise_n / (series.averaged as f64).sqrt();
+    let noise_n = series.point_noise_n(sample_noise_n);
     // Both orientations at once where neither is given or decided: each fit is independent
     // and the bulk of the front end.
     let mut fits: Vec<(f64, LawFit)> = signs

@@ -88,6 +88,12 @@ pub struct Series {
 }
 
 impl Series {
+    /// Force noise of a point \[N\] from the noise of one native sample \[N\]: over the
+    /// square root of the samples averaged into it ([`Series::averaged`]).
+    pub fn point_noise_n(&self, sample_noise_n: f64) -> f64 {
+        sample_noise_n / (self.averaged as f64).sqrt()
+    }
+
     /// The points of `time_s`, `position_m`, `force_n` (same length ≥ 2, time
     /// increasing): the record is cut into blocks of ⌈n / [`MAX_POINTS`]⌉ samples, and each
     /// block gives the mean of one run of `averaged` consecutive samples: the whole block
