@@ -169,6 +169,10 @@ pub struct Prepared {
     pub depth_m: Vec<f64>,
     /// δ̇ \[m/s\] (central difference).
     pub rate_m_per_s: Vec<f64>,
+    /// Whether [`Prepared::rate_m_per_s`] is the blocks' mean rate to fourth order (a fast
+    /// motion against the noise, `frontend::series::rate_and_kinks`): a delayed model's
+    /// rates are then taken the same way.
+    pub fourth_order_rate: bool,
     /// δ̈ \[m/s²\] (second difference).
     pub accel_m_per_s2: Vec<f64>,
     /// The sample is left out of every fit and of what decides (RSS, N, NRMSE, BIC, the
@@ -485,7 +489,8 @@ fn assemble(
     // motion (the front end's): a slow indentation's nanometre jitter would otherwise
     // flicker the phases between loading and hold.
     let block_time: Vec<f64> = (0..blocks).map(|b| b as f64 * dt).collect();
-    let (rate, kink) = crate::frontend::series::rate_and_kinks(&block_time, &depth);
+    let (rate, kink, fourth_order_rate) =
+        crate::frontend::series::rate_and_kinks(&block_time, &depth, &in_contact);
     // (Out of contact the force does not read the rate: a kink there costs nothing.)
     let mut left_out: Vec<bool> = kink
         .iter()
@@ -538,6 +543,7 @@ fn assemble(
         time_s: (0..blocks).map(|b| avg(time_s, b)).collect(),
         depth_m: depth,
         rate_m_per_s: rate,
+        fourth_order_rate,
         accel_m_per_s2: accel,
         left_out,
         leading_left_out,

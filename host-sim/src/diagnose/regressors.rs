@@ -287,7 +287,20 @@ pub(super) fn design(
             let (m0, m1, p1) = (avg(k - 1), avg(k), avg(k + 1));
             dd.push(m1);
             let centre = k as f64 * b + half - shift * b;
-            vv.push(kink_rate(centre).unwrap_or((p1 - m0) / (2.0 * dt)));
+            // (As the undelayed rate: to fourth order where the record's is, away from the
+            // kinks: its five block means read 2.5 blocks either side of the centre.)
+            let reach = 2.5 * b;
+            let steps = &data.kink_steps;
+            let first_after = steps.partition_point(|s| s.raw_index <= centre - reach);
+            let clear = steps
+                .get(first_after)
+                .is_none_or(|s| s.raw_index >= centre + reach);
+            let symmetric = if data.fourth_order_rate && clear {
+                (8.0 * (p1 - m0) - (avg(k + 2) - avg(k - 2))) / (12.0 * dt)
+            } else {
+                (p1 - m0) / (2.0 * dt)
+            };
+            vv.push(kink_rate(centre).unwrap_or(symmetric));
             aa.push((p1 - 2.0 * m1 + m0) / (dt * dt));
         }
         [dd, vv, aa]
