@@ -620,14 +620,6 @@ mod tests {
         assert_eq!(s.len(), 6000);
     }
 
-    /// The diagnosis's block means of a fast ramp-and-hold (a 60 ms ramp at 30 mm/s, a
-    /// 1 s hold, the same ramp back, each corner inside a 5 ms block): a block with a
-    /// corner inside is left out, and every other reads its own side's rate exactly. Before
-    /// [`MAX_KINK_SHARE_OF_BLOCKS_IN_MOTION`] the ramp's six kinks were more than a tenth of
-    /// its 28 moving blocks and none was flagged, and the block after each corner (a mean
-    /// of both sides, an end of the next block's difference) gave a rate between the
-    /// sides, where it now reads its own side's by a one-sided difference: on a structure
-    /// sweep record those three blocks carried 90 % of a Kelvin-Voigt baseline's RSS.
     /// Block means of a fast smooth motion (a 25 Hz, 1 mm oscillation sampled at 1 kHz,
     /// in 2 ms blocks, where the shortest half-width is two blocks): the rate is the mean
     /// of the raw samples' rates within 0.5 % of the peak speed, where the symmetric
@@ -690,6 +682,14 @@ mod tests {
         assert!(symmetric.is_some(), "a rate is not a symmetric difference");
     }
 
+    /// The diagnosis's block means of a fast ramp-and-hold (a 60 ms ramp at 30 mm/s, a
+    /// 1 s hold, the same ramp back, each corner inside a 5 ms block): a block with a
+    /// corner inside is left out, and every other reads its own side's rate exactly. Before
+    /// [`MAX_KINK_SHARE_OF_BLOCKS_IN_MOTION`] the ramp's six kinks were more than a tenth of
+    /// its 28 moving blocks and none was flagged, and the block after each corner (a mean
+    /// of both sides, an end of the next block's difference) gave a rate between the
+    /// sides, where it now reads its own side's by a one-sided difference: on a structure
+    /// sweep record those three blocks carried 90 % of a Kelvin-Voigt baseline's RSS.
     #[test]
     fn block_means_of_a_fast_ramp_keep_only_rates_of_one_side() {
         let (speed, ramp_s, block) = (0.03, 0.06, 5);
