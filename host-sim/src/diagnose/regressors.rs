@@ -10,6 +10,7 @@ use estimator_core::laws;
 
 use super::catalogue::{Effect, Nonlinear, Scales};
 use super::data::{KinkStep, Prepared};
+use crate::frontend::series::richardson_rate;
 
 /// A regression column of the composite model: its coefficient is solved by least
 /// squares for given [`Nonlinear`] values.
@@ -295,10 +296,11 @@ pub(super) fn design(
             let clear = steps
                 .get(first_after)
                 .is_none_or(|s| s.raw_index >= centre + reach);
+            let d1 = (p1 - m0) / (2.0 * dt);
             let symmetric = if data.fourth_order_rate && clear {
-                (8.0 * (p1 - m0) - (avg(k + 2) - avg(k - 2))) / (12.0 * dt)
+                richardson_rate(d1, (avg(k + 2) - avg(k - 2)) / (4.0 * dt))
             } else {
-                (p1 - m0) / (2.0 * dt)
+                d1
             };
             vv.push(kink_rate(centre).unwrap_or(symmetric));
             aa.push((p1 - 2.0 * m1 + m0) / (dt * dt));

@@ -535,7 +535,15 @@ fn fourth_order_pays(
 /// is √1.8 times D(k)'s.
 fn mean_rate_of_block(time_s: &[f64], position: &[f64], j: usize, k: usize) -> f64 {
     let d = |h: usize| (position[j + h] - position[j - h]) / (time_s[j + h] - time_s[j - h]);
-    (4.0 * d(k) - d(2 * k)) / 3.0
+    richardson_rate(d(k), d(2 * k))
+}
+
+/// Richardson's combination (4·D(h) − D(2h))/3 of two symmetric differences of block
+/// means about the same centre, half-widths h and 2h \[m/s\]: the block's mean rate to
+/// fourth order (the h²/6·δ⃛ term of each cancels). The one formula of the front end's
+/// rates ([`rate_and_kinks`]) and the discrepancy workflow's delayed rates.
+pub fn richardson_rate(d_h: f64, d_2h: f64) -> f64 {
+    (4.0 * d_h - d_2h) / 3.0
 }
 
 /// Robust noise level of `x` from third differences, σ = MAD(Δ³x)/0.6745/√20: like
