@@ -177,3 +177,82 @@ fn kelvin_voigt_ramp_from_free_space_fits_the_onset_step_as_damping() {
     );
     assert_eq!(d.final_fit.parameter(Param::Lambda), Some(0.0));
 }
+
+/// A staircase stress-relaxation test on a gel (κ = 198 N/m, λ = 3.3 N·s/m, one relaxation
+/// mode: 27 % relaxed at ν = 0.92 /s through the core's `laws::relaxing_step`), four
+/// 0.86 mm steps at 13.6 mm/s each held 6.5 s, then a retract; 500 Hz, AR(1) force noise
+/// (σ = 3 mN, φ = 0.55); the record begins two samples before the contact. The structure
+/// of an independent generator's record that made `diagnose` panic (index out of
+/// bounds, 2026-11-28): there the delay candidate's moved evaluations lacked the
+/// relaxation's start column, which exists only where the fit window's first sample is
+/// in contact, and its coefficients were read by index (now by name,
+/// `regressors::aligned_coefficients`, tested on its own). This record does not reach
+/// that toggle; it holds the diagnosis of the structure: the relaxation named first,
+/// its rate within 10 %.
+#[test]
+fn a_staircase_relaxation_beginning_at_the_contact_names_the_relaxation() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let dt = 2e-3;
+    let (kappa, lambda, fraction, nu) = (198.0, 3.3, 0.27, 0.92);
+    let (v, step_m, hold_s) = (13.6e-3, 0.86e-3, 6.5);
+    // Motion: 2 samples out (the third 0.3 µm in), four ramp-and-holds, a retract to
+    // 1.2 mm out.
+    let mut x = vec![0.3e-6 - 2.0 * v * dt, 0.3e-6 - v * dt];
+    for k in 1..=4 {
+        let target = k as f64 * step_m;
+        while *x.last().unwrap() < target {
+            let next = (x.last().unwrap() + v * dt).min(target);
+            x.push(next);
+        }
+        x.extend(std::iter::repeat_n(target, (hold_s / dt) as usize));
+    }
+    while *x.last().unwrap() > -1.2e-3 {
+        let next = x.last().unwrap() - 7.7e-3 * dt;
+        x.push(next);
+    }
+    x.extend(std::iter::repeat_n(-1.2e-3, 100));
+    let (one_minus_decay, gain) = estimator_core::laws::relaxation_coefficients(nu, dt);
+    let (mut z, mut previous_elastic) = (0.0, 0.0);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(154);
+    let mut noise = 0.0;
+    let path = dir.path().join("staircase.csv");
+    let mut f = std::fs::File::create(&path).expect("create");
+    writeln!(f, "time_s,position_m,force_n").expect("write");
+    for i in 0..x.len() {
+        let delta = x[i].max(0.0);
+        let rate = if i == 0 { 0.0 } else { (x[i] - x[i - 1]) / dt };
+        let elastic = kappa * delta;
+        z = estimator_core::laws::relaxing_step(
+            z,
+            elastic - previous_elastic,
+            one_minus_decay,
+            gain,
+        );
+        previous_elastic = elastic;
+        let force = if delta > 0.0 {
+            ((1.0 - fraction) * elastic + fraction * z + lambda * rate).max(0.0)
+        } else {
+            0.0
+        };
+        let e: f64 = rng.sample(StandardNormal);
+        noise = 0.55 * noise + (1.0f64 - 0.55 * 0.55).sqrt() * 3e-3 * e;
+        writeln!(f, "{:.6},{:.9e},{:.9e}", i as f64 * dt, x[i], force + noise).expect("write");
+    }
+    drop(f);
+    let d = diagnose_file(
+        &path,
+        "auto",
+        &Options::default(),
+        &Overrides::default(),
+        None,
+    )
+    .unwrap_or_else(|e| panic!("staircase: {e:#}"))
+    .diagnosis;
+    let first = d.steps.first().map(|s| s.effect.id());
+    assert_eq!(first, Some("relaxation"), "{:?}", d.final_fit.effects);
+    let rate = d
+        .final_fit
+        .parameter(Param::RatePerS)
+        .expect("a relaxation rate");
+    assert!((rate / nu - 1.0).abs() < 0.1, "ν = {rate} against {nu}");
+}

@@ -176,6 +176,24 @@ impl Design {
     }
 }
 
+/// The coefficients `beta` of a design whose columns are `from`, laid out for the columns
+/// `to` of another evaluation of the same effects: matched by name, 0 for a column `from`
+/// lacks (its force is then 0). The column set can change with the nonlinear knobs (a
+/// relaxation's [`Column::RelaxingStart`] exists only where the window's first sample is
+/// in contact, which a delay or a contact point can move), so a coefficient's index in one
+/// evaluation is not its index in another.
+pub(super) fn aligned_coefficients(to: &[Column], from: &[Column], beta: &[f64]) -> Vec<f64> {
+    to.iter()
+        .map(|c| {
+            from.iter()
+                .position(|other| other == c)
+                .and_then(|j| beta.get(j))
+                .copied()
+                .unwrap_or(0.0)
+        })
+        .collect()
+}
+
 /// Linear interpolation of `v` at fractional index `x`.
 fn interp(v: &[f64], x: f64) -> f64 {
     if x <= 0.0 {
@@ -945,6 +963,61 @@ mod tests {
     use super::*;
     use crate::diagnose::data::prepare_known;
     use std::f64::consts::PI;
+
+    /// A relaxation's start column exists only where the fit window's first sample is in
+    /// contact, so moving a knob (here the contact point past the first sample; in the
+    /// independent generator's record that made `diagnose` panic, a delay) changes the
+    /// column set: coefficients carried from one evaluation to another are matched by
+    /// name, the missing column's force 0 (before 2026-11-28 they were read by index:
+    /// an index out of bounds in `Joint::with_delay`, and in `Joint::of` a derivative
+    /// that multiplied each column after the missing one by its neighbour's coefficient).
+    #[test]
+    fn coefficients_follow_their_columns_when_a_knob_changes_the_column_set() {
+        // In contact from the first sample: 0.2 mm, pressed to 1 mm over 1 s, held 3 s.
+        let t: Vec<f64> = (0..4000).map(|i| i as f64 * 1e-3).collect();
+        let x: Vec<f64> = t.iter().map(|&t| 2e-4 + 8e-4 * t.min(1.0)).collect();
+        let force: Vec<f64> = x.iter().map(|&x| 1e4 * x).collect();
+        let data = prepare_known(&t, &x, &force, 0.0, 0.0, 1e-3, 1).expect("prepared");
+        let effects: BTreeSet<Effect> = [Effect::Relaxation].into_iter().collect();
+        let scale = Scales::of(&data);
+        let start = data.fit_start();
+        let nl = Nonlinear {
+            nu: 1.0,
+            ..Nonlinear::default()
+        };
+        let optimum = design(&data, start, &effects, &nl, &scale);
+        assert!(
+            optimum.names.contains(&Column::RelaxingStart),
+            "{:?}",
+            optimum.names
+        );
+        let moved_nl = Nonlinear {
+            contact_m: 2.5e-4,
+            ..nl
+        };
+        let moved = design(&data, start, &effects, &moved_nl, &scale);
+        assert!(
+            !moved.names.contains(&Column::RelaxingStart),
+            "{:?}",
+            moved.names
+        );
+        let beta: Vec<f64> = (1..=optimum.names.len()).map(|j| j as f64).collect();
+        let aligned = aligned_coefficients(&moved.names, &optimum.names, &beta);
+        for (c, b) in moved.names.iter().zip(&aligned) {
+            let j = optimum.names.iter().position(|o| o == c).expect("shared");
+            assert_eq!(*b, beta[j], "{c:?}");
+        }
+        // And back: the optimum's start column takes 0 from an evaluation without it.
+        let back = aligned_coefficients(&optimum.names, &moved.names, &aligned);
+        for (c, b) in optimum.names.iter().zip(&back) {
+            let expected = if *c == Column::RelaxingStart {
+                0.0
+            } else {
+                beta[optimum.names.iter().position(|o| o == c).unwrap()]
+            };
+            assert_eq!(*b, expected, "{c:?}");
+        }
+    }
 
     /// 8 Hz taps that leave contact every cycle (contact at δ = 0), 4 s at 1 kHz, the
     /// force a spring, a damper and a 1.5 kg mass in contact (acceleration exact), and the

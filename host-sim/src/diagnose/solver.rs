@@ -16,7 +16,7 @@ use super::catalogue::{
     MAX_PLASTIC_FRACTION,
 };
 use super::data::Prepared;
-use super::regressors::{design, mask_rows, touch_weight, Column, Design};
+use super::regressors::{aligned_coefficients, design, mask_rows, touch_weight, Column, Design};
 use super::scoring::cross_validate;
 
 /// Result of one least-squares solve.
@@ -1399,6 +1399,8 @@ enum Slot {
 /// orthogonal to it (a combination the record fixes, the stiffness beside that pair) has
 /// its standard error from the pseudo-inverse.
 struct Joint {
+    /// The optimum design's columns ([`Slot::Column`] indexes them).
+    names: Vec<Column>,
     slots: Vec<Slot>,
     covariance: DMatrix<f64>,
     /// The information's null space ([`NullSpace`]; empty where it is regular).
@@ -1483,11 +1485,9 @@ impl Joint {
             .filter(|&k| k != Knob::Delay && k.bound_hit(nl.get(k), scale).is_none())
             .collect();
         // The model force at `at`, the coefficients held at the optimum's.
-        let force = |design: &Design| -> Vec<f64> {
-            let (m, o) = (
-                design.sums(&solve.beta, true),
-                design.sums(&solve.beta, false),
-            );
+        let force = |moved: &Design| -> Vec<f64> {
+            let beta = aligned_coefficients(&moved.names, &design.names, &solve.beta);
+            let (m, o) = (moved.sums(&beta, true), moved.sums(&beta, false));
             m.iter().zip(&o).map(|(m, o)| m + o).collect()
         };
         // ∂F/∂knob by central differences of 0.1 % of the knob's range (of its value on
@@ -1546,6 +1546,7 @@ impl Joint {
         });
         let (covariance, null) = pseudo_covariance(&information, sigma2)?;
         Some(Joint {
+            names: design.names.clone(),
             slots,
             covariance,
             null,
@@ -1567,10 +1568,18 @@ impl Joint {
         if step.is_nan() || step <= 0.0 {
             return None;
         }
-        let beta = |x: f64| problem.evaluate_moved(nl, Knob::Delay, x).map(|r| r.2.beta);
+        // (Each coefficient by its column's name: the moved evaluation's columns can
+        // differ from the optimum's, a relaxation's start column where the delay moves
+        // the window's first sample out of contact.)
+        let beta = |x: f64| {
+            problem
+                .evaluate_moved(nl, Knob::Delay, x)
+                .map(|(_, moved, solve, _)| {
+                    aligned_coefficients(&self.names, &moved.names, &solve.beta)
+                })
+        };
         let (plus, minus) = rayon::join(|| beta(tau + step), || beta(tau - step));
         let (plus, minus) = (plus?, minus?);
-        // (The same effects, so the same columns as the slots'.)
         let slope: Vec<f64> = self
             .slots
             .iter()
@@ -1590,6 +1599,7 @@ impl Joint {
         let mut slots = self.slots.clone();
         slots.push(Slot::Knob(Knob::Delay));
         Some(Joint {
+            names: self.names.clone(),
             slots,
             covariance,
             null: self.null.with_slot(),
@@ -1803,6 +1813,7 @@ mod tests {
         let (covariance, null) = pseudo_covariance(&full, sigma2).unwrap();
         assert_eq!(null.vectors.len(), 2);
         let joint = Joint {
+            names: Vec::new(),
             slots: vec![
                 Slot::Column(0),
                 Slot::Column(1),
