@@ -76,7 +76,14 @@ struct DepthBins {
 }
 
 /// `of(δ̇)` over the in-contact samples `keep` accepts, sorted by depth into 20 bins of
-/// equal count; `None` under 40 samples or with an RMS of 0.
+/// equal count (fewer, of 2 samples each, under 40 samples: a few short taps); `None`
+/// under [`MIN_DEPTH_BIN_SAMPLES`] samples or with an RMS of 0.
+///
+/// (Before 2026-11-28 under 40 samples gave `None`, which the callers read as a spread of
+/// 0: an independent generator's four 50 ms taps of a damped material at 2 kHz, 36
+/// contact samples in 5 ms blocks, read as "each depth passed at one speed", the
+/// damping held at 0 against its plain hysteresis, λ = 585 N·s/m, and the record ended
+/// at 11 times its noise floor with every rate effect "not identifiable".)
 fn depth_bins(
     data: &Prepared,
     start: usize,
@@ -89,7 +96,7 @@ fn depth_bins(
         .filter(|&i| data.contact[i] && data.depth_m[i] > 0.0 && !data.left_out[i] && keep(i))
         .map(|i| (data.depth_m[i], of(data.rate_m_per_s[i])))
         .collect();
-    if samples.len() < 40 {
+    if samples.len() < MIN_DEPTH_BIN_SAMPLES {
         return None;
     }
     samples.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -98,7 +105,7 @@ fn depth_bins(
         return None;
     }
     let mean = samples.iter().map(|s| s.1).sum::<f64>() / samples.len() as f64;
-    let bins = 20;
+    let bins = (samples.len() / 2).min(20);
     let per = samples.len() / bins;
     let mut within = 0.0;
     let mut between = 0.0;
@@ -119,6 +126,11 @@ fn depth_bins(
         between: (between / count as f64).sqrt() / rms,
     })
 }
+
+/// Fewest in-contact samples over which the spread of the rate at a depth is measured
+/// (4 depth bins of 2: a loading and an unloading sample at about one depth tell the
+/// rate's sign apart); fewer leave it unmeasured, read as one speed.
+pub const MIN_DEPTH_BIN_SAMPLES: usize = 8;
 
 /// Whether the fit window holds the probe still in contact long enough to show a
 /// relaxation: at least [`MIN_HOLD_SAMPLES`] fitting samples and [`MIN_HOLD_SHARE`] of its
@@ -229,5 +241,56 @@ pub fn separating_motion(a: Effect, b: Effect) -> &'static str {
         "a lift-off out of contact and back (the offset, the contact point and a set differ there)"
     } else {
         "a richer motion: several speeds, a hold and a lift-off"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::data::prepare_known;
+    use std::f64::consts::PI;
+
+    /// Three short taps (half-sines 30 ms long and 1 mm high from 0.2 mm out, one every
+    /// 0.75 s) of a Kelvin-Voigt material at 1 kHz: loading and unloading pass each depth
+    /// at opposite rates, a spread of about 1, on fewer than 40 fitting samples in
+    /// contact. Before 2026-11-28 that few read as a spread of 0 (one speed: such a
+    /// record's damping held at 0, its hysteresis unfitted).
+    #[test]
+    fn a_few_short_taps_pass_each_depth_at_two_rates() {
+        let t: Vec<f64> = (0..2200).map(|i| i as f64 * 1e-3).collect();
+        let tap = |t: f64| -> (f64, f64) {
+            let phase = (t - 0.3).rem_euclid(0.75);
+            if t >= 0.3 && phase < 0.03 {
+                let w = PI / 0.03;
+                (
+                    -0.2e-3 + 1.0e-3 * (w * phase).sin(),
+                    1.0e-3 * w * (w * phase).cos(),
+                )
+            } else {
+                (-0.2e-3, 0.0)
+            }
+        };
+        let x: Vec<f64> = t.iter().map(|&t| tap(t).0).collect();
+        let force: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                let (x, v) = tap(t);
+                if x > 0.0 {
+                    (2e4 * x + 20.0 * v).max(0.0)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let data = prepare_known(&t, &x, &force, 0.0, 0.0, 1e-3, 1).expect("prepared");
+        let start = data.fit_start();
+        let contact = (start..data.len()).filter(|&i| data.contact[i]).count();
+        assert!(
+            (8..40).contains(&contact),
+            "{contact} contact samples in blocks of {}",
+            data.block
+        );
+        let spread = rate_spread_at_depth(&data, start);
+        assert!(spread > RATE_SPREAD_MIN, "{spread}");
     }
 }
