@@ -405,14 +405,14 @@ fn free_runs_in(contact: &[bool], min_len: usize) -> Vec<(usize, usize)> {
 /// The residual sums of squares \[N²\] of `fit` and `current` over the samples within
 /// `half_width_s` of a contact onset or lift-off (the detector's transitions after the fit
 /// window's start) or of a kink of the motion in contact ([`super::data::KinkStep`]:
-/// there the force steps by λ·Δv, and a delayed channel steps τ later); `None` where the
-/// window has none.
+/// there the force steps by λ·Δv, and a delayed channel steps τ later), and how many
+/// samples they hold; `None` where the window has none.
 pub fn edge_rss(
     data: &Prepared,
     fit: &Fit,
     current: &Fit,
     half_width_s: f64,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, usize)> {
     let start = fit.start.max(current.start);
     let w = (half_width_s / data.dt).ceil() as usize;
     let n = data.len();
@@ -437,7 +437,8 @@ pub fn edge_rss(
             .map(|i| (data.force_n[i] - f.prediction[i - f.start]).powi(2))
             .sum()
     };
-    edges.then(|| (rss(fit), rss(current)))
+    let count = (start..n).filter(|&i| near[i] && !data.left_out[i]).count();
+    edges.then(|| (rss(fit), rss(current), count))
 }
 
 /// |t| a drift's slope must reach in the free space ([`free_space_trend`]).
