@@ -59,8 +59,13 @@ fn diagnose_record(
         .expect("write");
     }
     drop(f);
+    diagnose_written(&path, name)
+}
+
+/// Diagnoses the file at `path` from Kelvin-Voigt as a user would; panics naming `name`.
+fn diagnose_written(path: &Path, name: &str) -> Diagnosis {
     diagnose_file(
-        &path,
+        path,
         "auto",
         &Options::default(),
         &Overrides::default(),
@@ -243,15 +248,7 @@ fn a_staircase_relaxation_beginning_at_the_contact_names_the_relaxation() {
         writeln!(f, "{:.6},{:.9e},{:.9e}", i as f64 * dt, x[i], force + noise).expect("write");
     }
     drop(f);
-    let d = diagnose_file(
-        &path,
-        "auto",
-        &Options::default(),
-        &Overrides::default(),
-        None,
-    )
-    .unwrap_or_else(|e| panic!("staircase: {e:#}"))
-    .diagnosis;
+    let d = diagnose_written(&path, "staircase");
     let first = d.steps.first().map(|s| s.effect.id());
     assert_eq!(first, Some("relaxation"), "{:?}", d.final_fit.effects);
     let rate = d
@@ -310,15 +307,7 @@ fn a_lag_beyond_any_damping_on_a_chirp_in_contact_is_named_a_delay() {
         writeln!(f, "{t:.6},{:.9e},{force:.9e}", depth(t)).expect("write");
     }
     drop(f);
-    let d = diagnose_file(
-        &path,
-        "auto",
-        &Options::default(),
-        &Overrides::default(),
-        None,
-    )
-    .unwrap_or_else(|e| panic!("chirp: {e:#}"))
-    .diagnosis;
+    let d = diagnose_written(&path, "chirp");
     let effects = d.effects_added();
     assert!(effects.contains(&"time_delay"), "{effects:?}");
     let tau = d.final_fit.parameter(Param::DelayS).expect("a delay");
