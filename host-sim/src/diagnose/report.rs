@@ -307,6 +307,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "no (nonphysical)"
             } else if c.nested && c.fit.relaxes_at_the_fast_bound() {
                 "no (a mode faster than the record resolves: the damping the model has)"
+            } else if c.nested && c.fit.relaxes_at_the_slow_bound() {
+                "no (a mode slower than the record resolves: a trend with the load, which a drifting zero or another misfit makes too)"
             } else if c.nested {
                 "no (its parameter stayed at the current model's value)"
             } else if c.unseen_in_free_space {

@@ -205,17 +205,31 @@ impl Fit {
     /// fraction is not a product with it (which marks the slow bound, see
     /// `mark_undetermined`).
     pub fn relaxes_at_the_fast_bound(&self) -> bool {
+        self.relaxation_bound() == Some(false)
+    }
+
+    /// Whether the model's relaxation rate ended at the slow bound of its search (a mode
+    /// slower than the record: only the fraction's product with the rate is determined,
+    /// `mark_undetermined`), where its force is c·ν·∫F_e dt, a slow trend with the load.
+    pub fn relaxes_at_the_slow_bound(&self) -> bool {
+        self.relaxation_bound() == Some(true)
+    }
+
+    /// At which bound of its search the relaxation rate ended: `Some(true)` the slow one,
+    /// `Some(false)` the fast one, `None` neither (or no relaxation).
+    fn relaxation_bound(&self) -> Option<bool> {
         let determination = |param: Param| {
             self.parameters
                 .iter()
                 .find(|p| p.param == param)
                 .map(|p| p.determination)
         };
-        determination(Param::RatePerS) == Some(Determination::AtSearchBound)
-            && !matches!(
+        (determination(Param::RatePerS) == Some(Determination::AtSearchBound)).then(|| {
+            matches!(
                 determination(Param::RelaxedFraction),
                 Some(Determination::ProductOnly(_))
             )
+        })
     }
 
     /// A parameter's value, if the model has it.
