@@ -431,14 +431,16 @@ pub fn edge_rss(
             *flag = true;
         }
     }
+    let counted: Vec<usize> = (start..n)
+        .filter(|&i| near[i] && !data.left_out[i])
+        .collect();
     let rss = |f: &Fit| -> f64 {
-        (start..n)
-            .filter(|&i| near[i] && !data.left_out[i])
-            .map(|i| (data.force_n[i] - f.prediction[i - f.start]).powi(2))
+        counted
+            .iter()
+            .map(|&i| (data.force_n[i] - f.prediction[i - f.start]).powi(2))
             .sum()
     };
-    let count = (start..n).filter(|&i| near[i] && !data.left_out[i]).count();
-    edges.then(|| (rss(fit), rss(current), count))
+    edges.then(|| (rss(fit), rss(current), counted.len()))
 }
 
 /// |t| a drift's slope must reach in the free space ([`free_space_trend`]).
