@@ -70,7 +70,7 @@ pub use self::localisation::{localise, Localisation, PHASE_ORDER};
 pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
 use self::scoring::{
     free_runs, free_space_trend, rss_floor, samples_counted, score, MIN_FREE_SPACE_TREND,
-    MIN_SHIFT_OVER_WANDER,
+    MIN_SHIFT_OVER_WANDER, MIN_STEP_OVER_WANDER,
 };
 use self::solver::{fit, Effort, Fit};
 
@@ -170,7 +170,10 @@ pub struct Candidate {
     pub unseen_in_free_space: bool,
     /// A shift of the later contacts' point that moves their force by no more than the
     /// load cell's zero wanders between free stretches ([`scoring::free_space_wander`],
-    /// [`scoring::MIN_SHIFT_OVER_WANDER`]): never significant.
+    /// [`scoring::MIN_SHIFT_OVER_WANDER`]), or a load-cell step no larger than a few
+    /// times the zero's own wander between adjacent windows of the free space
+    /// ([`scoring::zero_step_wander`], [`scoring::MIN_STEP_OVER_WANDER`]): never
+    /// significant.
     pub within_zero_wander: bool,
     /// A delay the record's contact edges do not show ([`scoring::edge_rss`]): never
     /// significant.
@@ -763,6 +766,24 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // the plain spread of the means about the current model, its hidden
                 // shifts were 1.8-340× the wander but one at 0.8, on a pink-noise
                 // teleoperation record, and the spurious ones 0.46-1.39).
+                scored.significant = false;
+                scored.within_zero_wander = true;
+            }
+            if e == Effect::ForceOffset
+                && scoring::zero_step_wander(data, &scored.fit).is_some_and(|(wander, _)| {
+                    let step = scored.fit.parameter(Param::ForceOffsetN).unwrap_or(0.0);
+                    step.abs() <= MIN_STEP_OVER_WANDER * wander
+                })
+            {
+                // A step of the zero no larger than the zero moves by itself between
+                // two adjacent stretches of the free space, at the longest time scale
+                // the record measures that on: under a 1/f noise the zero's level after
+                // the first contact differs from its level before by about that much,
+                // and the BIC's effective samples, counted from the noise's short-range
+                // colour, do not see it (an independent generator's clean records under
+                // pink or strongly coloured AR(1) noise: 4 of 60 took a step of 0.4-1.5
+                // fitting-sample noise levels, 0.5-2.0 times this wander; its 24 hidden
+                // steps were 8-250 times it).
                 scored.significant = false;
                 scored.within_zero_wander = true;
             }

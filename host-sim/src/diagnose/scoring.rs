@@ -539,6 +539,55 @@ pub fn free_space_wander(data: &Prepared, fit: &Fit, noise_fraction: Option<f64>
     Some((between - own).max(0.0).sqrt())
 }
 
+/// Fewest differences of adjacent window means on which [`zero_step_wander`] measures
+/// the zero's wander at a time scale.
+pub const WANDER_DIFFERENCES: usize = 16;
+
+/// Shortest window \[fitting samples\] of [`zero_step_wander`].
+pub const WANDER_WINDOW: usize = 4;
+
+/// A load-cell step (`force_offset`) no larger than this many times the zero's own
+/// wander between adjacent windows of the free space ([`zero_step_wander`]) is not told
+/// from that wander.
+pub const MIN_STEP_OVER_WANDER: f64 = 3.0;
+
+/// How far the load cell's zero moves by itself between two adjacent stretches of the
+/// free space \[N\], and over how many fitting samples: the RMS difference between the
+/// means of adjacent, non-overlapping windows of `L` fitting samples of `fit`'s residual
+/// within each free stretch from `fit.start` on (the free space shows the zero alone,
+/// whatever the model does in contact), `L` the longest power of two from
+/// [`WANDER_WINDOW`] with at least [`WANDER_DIFFERENCES`] such differences; `None` where
+/// even the shortest window has fewer.
+///
+/// This is the Allan deviation's estimator (times √2) of the load cell's zero at the
+/// longest time scale the record measures it on. White noise averages out of a long
+/// window, and the difference falls as σ·√(2/L); a 1/f noise's does not fall with `L`
+/// (its Allan deviation is flat): its slow part moves the zero between any two long
+/// stretches as much, and a step of the zero that size is that wander under another name.
+/// (A step fitted inside a free stretch takes up the jump there: one difference among
+/// at least sixteen.)
+pub fn zero_step_wander(data: &Prepared, fit: &Fit) -> Option<(f64, usize)> {
+    let residual = fit.residual(data);
+    let runs = free_runs(data, fit.start, 2 * WANDER_WINDOW);
+    let at = |window: usize| {
+        let (ss, count) = runs
+            .iter()
+            .filter(|(_, len)| *len >= 2 * window)
+            .flat_map(|&(first, len)| {
+                let means: Vec<f64> = residual[first..first + len]
+                    .chunks_exact(window)
+                    .map(|c| c.iter().sum::<f64>() / window as f64)
+                    .collect();
+                means.windows(2).map(|w| w[1] - w[0]).collect::<Vec<f64>>()
+            })
+            .fold((0.0, 0usize), |(ss, count), d| (ss + d * d, count + 1));
+        (count >= WANDER_DIFFERENCES).then(|| ((ss / count as f64).sqrt(), window))
+    };
+    std::iter::successors(Some(WANDER_WINDOW), |w| w.checked_mul(2))
+        .map_while(at)
+        .last()
+}
+
 /// The RMS \[N\] over the in-contact fitting samples of the difference between the forces
 /// two fits predict: how much force one moves against the other where the probe touches.
 pub fn contact_change_rms(data: &Prepared, a: &Fit, b: &Fit) -> f64 {
@@ -764,6 +813,74 @@ mod tests {
         assert_eq!(free_space_wander(&data, &fit(0.0, false), None), Some(0.0));
         let moved = contact_change_rms(&data, &fit(0.02, true), &fit(0.0, true));
         assert!((moved - 0.02).abs() < 1e-12, "{moved}");
+    }
+
+    /// The zero's wander is measured at the longest window with at least sixteen
+    /// differences: 4 s free after a 1 s press (800 fitting samples of 5 ms) give 24
+    /// differences of 32-sample windows and 11 of 64. White noise's adjacent 32-sample
+    /// means differ by σ·√(2/32); a 1/f-like noise of the same σ (equal variance in AR(1)
+    /// processes of 1 to 1000 samples, one per decade) by far more, as a step of the zero
+    /// would: the wander at the longest scale, not the noise's σ, is what a load-cell
+    /// step must exceed. Without a free stretch of two shortest windows: `None`.
+    #[test]
+    fn the_zero_wander_is_measured_at_the_longest_scale_the_free_space_allows() {
+        use super::super::catalogue::Nonlinear;
+        let data = log(5.0, |t| if t < 1.0 { 1e-3 } else { -1e-3 });
+        let fit = |noise: &[f64]| Fit {
+            effects: Vec::new(),
+            nonlinear: Nonlinear::default(),
+            parameters: Vec::new(),
+            rss: 1.0,
+            samples: data.len(),
+            nrmse_percent: 1.0,
+            vaf_percent: 99.0,
+            bic: 0.0,
+            free_parameters: 2,
+            cv_rmse_per_fold: vec![1.0; FOLDS],
+            cv_rmse: 1.0,
+            residual_sample_fraction: 1.0,
+            damping_combination_se: f64::NAN,
+            prediction: (0..data.len())
+                .map(|i| data.force_n[i] - noise[i])
+                .collect(),
+            start: 0,
+        };
+        let n = data.len();
+        assert_eq!(n, 1000);
+        let unit = |v: Vec<f64>| {
+            let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+            v.into_iter().map(|x| x / rms).collect::<Vec<f64>>()
+        };
+        let white = unit(ar1(0.0, n, 7));
+        let (wander, window) = zero_step_wander(&data, &fit(&white)).expect("800 free samples");
+        assert_eq!(window, 32);
+        let expected = (2.0_f64 / 32.0).sqrt();
+        assert!(
+            (wander / expected - 1.0).abs() < 0.3,
+            "{wander} against {expected}"
+        );
+        let pink = unit(
+            [1.0_f64, 10.0, 100.0, 1000.0]
+                .iter()
+                .enumerate()
+                .map(|(k, tau)| unit(ar1((-1.0 / tau).exp(), n, 11 + k as u64)))
+                .fold(vec![0.0; n], |sum, v| {
+                    sum.iter().zip(&v).map(|(a, b)| a + b).collect()
+                }),
+        );
+        let (slow, _) = zero_step_wander(&data, &fit(&pink)).expect("800 free samples");
+        assert!(
+            slow > 2.0 * expected,
+            "{slow} against white noise's {expected}"
+        );
+        // Free for 30 ms (6 fitting samples), then pressed: nothing to measure on.
+        let short = log(1.0, |t| if t < 0.03 { -1e-3 } else { 1e-3 });
+        let fit_short = Fit {
+            prediction: short.force_n.clone(),
+            samples: short.len(),
+            ..fit(&white)
+        };
+        assert_eq!(zero_step_wander(&short, &fit_short), None);
     }
 
     /// White noise counts about every sample; AR(1) noise with φ = 0.8 fewer than a
