@@ -702,6 +702,50 @@ fn pink_ramp_and_hold(
     path
 }
 
+/// On [`pink_ramp_and_hold`] records (30 mN of 1/f noise), per (seed, presses) of
+/// `cases`: nothing is named on the clean record, and on the one hiding `hidden`, only
+/// `effect`, its `param` within 10 % of `truth` (in magnitude: a shift's sign follows
+/// the file's axis).
+fn named_only_where_hidden(
+    cases: &[(u64, usize)],
+    hidden: PinkHidden,
+    effect: Effect,
+    (param, truth): (host_sim::diagnose::catalogue::Param, f64),
+) {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    for &(seed, presses) in cases {
+        for hidden in [PinkHidden::default(), hidden] {
+            let clean =
+                hidden.shift_m == 0.0 && hidden.step_n == 0.0 && hidden.drift_n_per_s == 0.0;
+            let path = pink_ramp_and_hold(dir.path(), seed, 0.03, hidden, presses);
+            let run = diagnose_csv(&path, &format!("seed {seed}"));
+            let d = &run.diagnosis;
+            if clean {
+                assert!(
+                    d.effects_added().is_empty(),
+                    "seed {seed}, clean: added {:?}",
+                    d.effects_added()
+                );
+                continue;
+            }
+            assert_eq!(
+                d.effects_added(),
+                [effect.id()],
+                "seed {seed}, {}",
+                effect.id()
+            );
+            let fitted = d
+                .final_fit
+                .parameter(param)
+                .expect("the effect's parameter");
+            assert!(
+                (fitted.abs() / truth - 1.0).abs() < 0.1,
+                "seed {seed}: {param:?} = {fitted}, truly {truth}"
+            );
+        }
+    }
+}
+
 /// A later contacts' shift of the contact point is not named where it moves their force
 /// by no more than the load cell's zero wanders between free stretches
 /// ([`MIN_SHIFT_OVER_WANDER`]): on two presses under 1/f noise (30 mN, 2 % of the force
@@ -714,45 +758,16 @@ fn pink_ramp_and_hold(
 /// [`MIN_SHIFT_OVER_WANDER`]: host_sim::diagnose::scoring::MIN_SHIFT_OVER_WANDER
 #[test]
 fn a_contact_shift_within_the_zero_wander_of_pink_noise_is_not_named() {
-    use host_sim::diagnose::catalogue::Param;
-    let dir = tempfile::tempdir().expect("a temporary directory");
-    for seed in [105, 107, 137] {
-        for shift_m in [0.0, 5.0e-4] {
-            let path = pink_ramp_and_hold(
-                dir.path(),
-                seed,
-                0.03,
-                PinkHidden {
-                    shift_m,
-                    ..PinkHidden::default()
-                },
-                2,
-            );
-            let run = diagnose_csv(&path, &format!("seed {seed}"));
-            let d = &run.diagnosis;
-            if shift_m == 0.0 {
-                assert!(
-                    d.effects_added().is_empty(),
-                    "seed {seed}, no shift: added {:?}",
-                    d.effects_added()
-                );
-                continue;
-            }
-            assert_eq!(
-                d.effects_added(),
-                [Effect::ContactPointOffset.id()],
-                "seed {seed}, a shift of {shift_m} m"
-            );
-            let fitted = d
-                .final_fit
-                .parameter(Param::ContactShiftM)
-                .expect("the shift's parameter");
-            assert!(
-                (fitted.abs() / shift_m - 1.0).abs() < 0.1,
-                "seed {seed}: a shift of {fitted} m, truly {shift_m} m"
-            );
-        }
-    }
+    let shift_m = 5.0e-4;
+    named_only_where_hidden(
+        &[(105, 2), (107, 2), (137, 2)],
+        PinkHidden {
+            shift_m,
+            ..PinkHidden::default()
+        },
+        Effect::ContactPointOffset,
+        (host_sim::diagnose::catalogue::Param::ContactShiftM, shift_m),
+    );
 }
 
 /// A load-cell step is not named where it is no larger than a few times the zero's own
@@ -768,45 +783,16 @@ fn a_contact_shift_within_the_zero_wander_of_pink_noise_is_not_named() {
 /// [`MIN_ZERO_CHANGE_OVER_WANDER`]: host_sim::diagnose::scoring::MIN_ZERO_CHANGE_OVER_WANDER
 #[test]
 fn a_load_cell_step_within_the_zero_wander_of_pink_noise_is_not_named() {
-    use host_sim::diagnose::catalogue::Param;
-    let dir = tempfile::tempdir().expect("a temporary directory");
-    for seed in [101, 105, 111] {
-        for step_n in [0.0, 0.3] {
-            let path = pink_ramp_and_hold(
-                dir.path(),
-                seed,
-                0.03,
-                PinkHidden {
-                    step_n,
-                    ..PinkHidden::default()
-                },
-                3,
-            );
-            let run = diagnose_csv(&path, &format!("seed {seed}"));
-            let d = &run.diagnosis;
-            if step_n == 0.0 {
-                assert!(
-                    d.effects_added().is_empty(),
-                    "seed {seed}, no step: added {:?}",
-                    d.effects_added()
-                );
-                continue;
-            }
-            assert_eq!(
-                d.effects_added(),
-                [Effect::ForceOffset.id()],
-                "seed {seed}, a step of {step_n} N"
-            );
-            let fitted = d
-                .final_fit
-                .parameter(Param::ForceOffsetN)
-                .expect("the step's parameter");
-            assert!(
-                (fitted / step_n - 1.0).abs() < 0.1,
-                "seed {seed}: a step of {fitted} N, truly {step_n} N"
-            );
-        }
-    }
+    let step_n = 0.3;
+    named_only_where_hidden(
+        &[(101, 3), (105, 3), (111, 3)],
+        PinkHidden {
+            step_n,
+            ..PinkHidden::default()
+        },
+        Effect::ForceOffset,
+        (host_sim::diagnose::catalogue::Param::ForceOffsetN, step_n),
+    );
 }
 
 /// A drift of the load cell's zero is not named where its change over the free space's
@@ -823,38 +809,17 @@ fn a_load_cell_step_within_the_zero_wander_of_pink_noise_is_not_named() {
 /// [`flicker_growth`]: host_sim::diagnose::scoring::flicker_growth
 #[test]
 fn a_drift_within_the_zero_wander_of_pink_noise_is_not_named() {
-    use host_sim::diagnose::catalogue::Param;
-    let dir = tempfile::tempdir().expect("a temporary directory");
-    for (seed, presses) in [(114, 3), (117, 2), (119, 3)] {
-        for drift_n_per_s in [0.0, 1.0e-2] {
-            let hidden = PinkHidden {
-                drift_n_per_s,
-                ..PinkHidden::default()
-            };
-            let path = pink_ramp_and_hold(dir.path(), seed, 0.03, hidden, presses);
-            let run = diagnose_csv(&path, &format!("seed {seed}"));
-            let d = &run.diagnosis;
-            if drift_n_per_s == 0.0 {
-                assert!(
-                    d.effects_added().is_empty(),
-                    "seed {seed}, no drift: added {:?}",
-                    d.effects_added()
-                );
-                continue;
-            }
-            assert_eq!(
-                d.effects_added(),
-                [Effect::ForceDrift.id()],
-                "seed {seed}, a drift of {drift_n_per_s} N/s"
-            );
-            let fitted = d
-                .final_fit
-                .parameter(Param::ForceDriftNPerS)
-                .expect("the drift's parameter");
-            assert!(
-                (fitted / drift_n_per_s - 1.0).abs() < 0.1,
-                "seed {seed}: a drift of {fitted} N/s, truly {drift_n_per_s} N/s"
-            );
-        }
-    }
+    let drift_n_per_s = 1.0e-2;
+    named_only_where_hidden(
+        &[(114, 3), (117, 2), (119, 3)],
+        PinkHidden {
+            drift_n_per_s,
+            ..PinkHidden::default()
+        },
+        Effect::ForceDrift,
+        (
+            host_sim::diagnose::catalogue::Param::ForceDriftNPerS,
+            drift_n_per_s,
+        ),
+    );
 }

@@ -737,6 +737,29 @@ mod tests {
             .collect()
     }
 
+    /// A fit of no effect that predicts `prediction` from the window's first sample (its
+    /// scores placeholders).
+    fn fit_predicting(prediction: Vec<f64>) -> Fit {
+        use super::super::catalogue::Nonlinear;
+        Fit {
+            effects: Vec::new(),
+            nonlinear: Nonlinear::default(),
+            parameters: Vec::new(),
+            rss: 1.0,
+            samples: prediction.len(),
+            nrmse_percent: 1.0,
+            vaf_percent: 99.0,
+            bic: 0.0,
+            free_parameters: 2,
+            cv_rmse_per_fold: vec![1.0; FOLDS],
+            cv_rmse: 1.0,
+            residual_sample_fraction: 1.0,
+            damping_combination_se: f64::NAN,
+            prediction,
+            start: 0,
+        }
+    }
+
     /// A relaxation's initial state is at most c times twice the model's force range:
     /// 0.37 N on a mode of c = 1.4·10⁻⁴ over a 33 N range (an independent generator's
     /// clean record in contact throughout, its slow noise taken as a relaxation begun
@@ -744,7 +767,7 @@ mod tests {
     /// mode of c = 0.44 begun 2.4 N into its relaxation.
     #[test]
     fn a_relaxation_begun_before_the_record_is_bounded_by_its_own_force() {
-        use super::super::catalogue::{Determination, Estimate, Nonlinear};
+        use super::super::catalogue::{Determination, Estimate};
         let fit = |c: f64, rate: f64, initial: f64| {
             let estimate = |param, value| Estimate {
                 param,
@@ -754,24 +777,13 @@ mod tests {
             };
             Fit {
                 effects: vec![Effect::Relaxation],
-                nonlinear: Nonlinear::default(),
                 parameters: vec![
                     estimate(Param::RelaxedFraction, c),
                     estimate(Param::RatePerS, rate),
                     estimate(Param::InitialRelaxingN, initial),
                 ],
-                rss: 1.0,
-                samples: 100,
-                nrmse_percent: 1.0,
-                vaf_percent: 99.0,
-                bic: 0.0,
                 free_parameters: 5,
-                cv_rmse_per_fold: vec![1.0; FOLDS],
-                cv_rmse: 1.0,
-                residual_sample_fraction: 1.0,
-                damping_combination_se: f64::NAN,
-                prediction: (0..100).map(|i| 23.0 + 0.33 * i as f64).collect(),
-                start: 0,
+                ..fit_predicting((0..100).map(|i| 23.0 + 0.33 * i as f64).collect())
             }
         };
         assert!(!physical(&fit(1.4e-4, 0.0246, -0.37), 12.0));
@@ -785,7 +797,6 @@ mod tests {
     /// moves it by 0.02 N RMS, and by nothing where the probe is free.
     #[test]
     fn the_zero_wanders_by_the_spread_of_the_free_stretch_means() {
-        use super::super::catalogue::Nonlinear;
         // Free 1 s, pressed 1 mm for 2 s, free 1 s, pressed, free 1 s.
         let data = log(7.0, |t| {
             if (1.0..3.0).contains(&t) || (4.0..6.0).contains(&t) {
@@ -801,27 +812,15 @@ mod tests {
             Some(1) => -0.01,
             _ => 0.0,
         };
-        let fit = |shift: f64, levels: bool| Fit {
-            effects: Vec::new(),
-            nonlinear: Nonlinear::default(),
-            parameters: Vec::new(),
-            rss: 1.0,
-            samples: data.len(),
-            nrmse_percent: 1.0,
-            vaf_percent: 99.0,
-            bic: 0.0,
-            free_parameters: 2,
-            cv_rmse_per_fold: vec![1.0; FOLDS],
-            cv_rmse: 1.0,
-            residual_sample_fraction: 1.0,
-            damping_combination_se: f64::NAN,
-            prediction: (0..data.len())
-                .map(|i| {
-                    let pressed = if data.contact[i] { shift } else { 0.0 };
-                    data.force_n[i] + pressed - if levels { level(i) } else { 0.0 }
-                })
-                .collect(),
-            start: 0,
+        let fit = |shift: f64, levels: bool| {
+            fit_predicting(
+                (0..data.len())
+                    .map(|i| {
+                        let pressed = if data.contact[i] { shift } else { 0.0 };
+                        data.force_n[i] + pressed - if levels { level(i) } else { 0.0 }
+                    })
+                    .collect(),
+            )
         };
         let wander = free_space_wander(&data, &fit(0.0, true), None).expect("three stretches");
         assert!((wander - 0.01).abs() < 1e-12, "{wander}");
@@ -839,26 +838,13 @@ mod tests {
     /// step must exceed. Without a free stretch of two shortest windows: `None`.
     #[test]
     fn the_zero_wander_is_measured_at_the_longest_scale_the_free_space_allows() {
-        use super::super::catalogue::Nonlinear;
         let data = log(5.0, |t| if t < 1.0 { 1e-3 } else { -1e-3 });
-        let fit = |noise: &[f64]| Fit {
-            effects: Vec::new(),
-            nonlinear: Nonlinear::default(),
-            parameters: Vec::new(),
-            rss: 1.0,
-            samples: data.len(),
-            nrmse_percent: 1.0,
-            vaf_percent: 99.0,
-            bic: 0.0,
-            free_parameters: 2,
-            cv_rmse_per_fold: vec![1.0; FOLDS],
-            cv_rmse: 1.0,
-            residual_sample_fraction: 1.0,
-            damping_combination_se: f64::NAN,
-            prediction: (0..data.len())
-                .map(|i| data.force_n[i] - noise[i])
-                .collect(),
-            start: 0,
+        let fit = |noise: &[f64]| {
+            fit_predicting(
+                (0..data.len())
+                    .map(|i| data.force_n[i] - noise[i])
+                    .collect(),
+            )
         };
         let n = data.len();
         assert_eq!(n, 1000);
@@ -890,11 +876,7 @@ mod tests {
         );
         // Free for 30 ms (6 fitting samples), then pressed: nothing to measure on.
         let short = log(1.0, |t| if t < 0.03 { -1e-3 } else { 1e-3 });
-        let fit_short = Fit {
-            prediction: short.force_n.clone(),
-            samples: short.len(),
-            ..fit(&white)
-        };
+        let fit_short = fit_predicting(short.force_n.clone());
         assert_eq!(zero_step_wander(&short, &fit_short), None);
     }
 
