@@ -812,10 +812,12 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     // windows' wander, 0.2-1.0 times this bar: one, at 1.03, is still
                     // named; its 20 hidden drifts and 5 pairs' were 16-163 times it,
                     // 2.5-26 times the bar).
-                    let free: Vec<usize> = (scored.fit.start..data.len())
-                        .filter(|&i| !data.contact[i])
-                        .collect();
-                    if let (Some(&first), Some(&last)) = (free.first(), free.last()) {
+                    let window_samples = scored.fit.start..data.len();
+                    let free = |i: &usize| !data.contact[*i];
+                    if let (Some(first), Some(last)) = (
+                        window_samples.clone().find(free),
+                        window_samples.rev().find(free),
+                    ) {
                         let span = (last - first) as f64;
                         let change = drift.abs() * span * data.dt;
                         let bar = MIN_ZERO_CHANGE_OVER_WANDER
