@@ -546,25 +546,10 @@ pub const WANDER_DIFFERENCES: usize = 16;
 /// Shortest window \[fitting samples\] of [`zero_step_wander`].
 pub const WANDER_WINDOW: usize = 4;
 
-/// A change of the load cell's zero (a `force_offset`'s step, a `force_drift` over the
-/// free space's span) no larger than this many times the zero's own wander between
-/// windows of the free space as far apart ([`zero_step_wander`], [`flicker_growth`]) is
-/// not told from that wander.
-pub const MIN_ZERO_CHANGE_OVER_WANDER: f64 = 3.0;
-
-/// How much more a 1/f noise's zero differs between two windows of `window` samples
-/// `separation` samples apart than between adjacent ones, as a factor on the RMS
-/// difference: √(1 + ½·log₂(separation / window)) (1 for adjacent windows or closer).
-/// A 1/f noise has equal power in every octave; the difference of two window means
-/// passes the octaves between 1/separation and 1/window, so its variance grows by a
-/// fixed share per doubling of the separation: half the adjacent difference's, measured
-/// on a simulated 1/f noise of 2²⁰ samples (32-sample windows 2, 16, 64, 256 apart:
-/// 1.26, 1.77, 2.00, 2.19 times the adjacent RMS difference; this factor 1.22, 1.73,
-/// 2.00, 2.24). (White noise's does not grow: the factor errs towards not naming a slow
-/// change of the zero.)
-pub fn flicker_growth(separation: f64, window: usize) -> f64 {
-    (1.0 + 0.5 * (separation / window as f64).log2().max(0.0)).sqrt()
-}
+/// A load-cell step (`force_offset`) no larger than this many times the zero's own
+/// wander between adjacent windows of the free space ([`zero_step_wander`]) is not told
+/// from that wander.
+pub const MIN_STEP_OVER_WANDER: f64 = 3.0;
 
 /// How far the load cell's zero moves by itself between two adjacent stretches of the
 /// free space \[N\], and over how many fitting samples: the RMS difference between the
@@ -878,15 +863,6 @@ mod tests {
         let short = log(1.0, |t| if t < 0.03 { -1e-3 } else { 1e-3 });
         let fit_short = fit_predicting(short.force_n.clone());
         assert_eq!(zero_step_wander(&short, &fit_short), None);
-    }
-
-    /// Adjacent windows (or closer) differ by the wander itself; two windows 64 apart by
-    /// twice it under a 1/f noise (six more octaves, each half the adjacent variance).
-    #[test]
-    fn a_flicker_noise_differs_more_between_windows_further_apart() {
-        assert_eq!(flicker_growth(32.0, 32), 1.0);
-        assert_eq!(flicker_growth(8.0, 32), 1.0);
-        assert!((flicker_growth(64.0 * 32.0, 32) - 2.0).abs() < 1e-12);
     }
 
     /// White noise counts about every sample; AR(1) noise with φ = 0.8 fewer than a
