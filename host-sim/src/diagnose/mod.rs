@@ -172,7 +172,10 @@ pub struct Candidate {
     /// load cell's zero wanders between free stretches ([`scoring::free_space_wander`],
     /// [`scoring::MIN_SHIFT_OVER_WANDER`]), or a load-cell step no larger than a few
     /// times the zero's own wander between adjacent windows of the free space
-    /// ([`scoring::zero_step_wander`], [`scoring::MIN_STEP_OVER_WANDER`]): never
+    /// ([`scoring::zero_step_wander`], [`scoring::MIN_STEP_OVER_WANDER`]), or a drift
+    /// whose change over the free space's span is no larger than a few times the slow
+    /// part of that wander grown to windows that far apart ([`scoring::ZeroWander`],
+    /// [`scoring::flicker_growth`], [`scoring::MIN_DRIFT_OVER_WANDER`]): never
     /// significant.
     pub within_zero_wander: bool,
     /// A delay the record's contact edges do not show ([`scoring::edge_rss`]): never
@@ -770,9 +773,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 scored.within_zero_wander = true;
             }
             if e == Effect::ForceOffset
-                && scoring::zero_step_wander(data, &scored.fit).is_some_and(|(wander, _)| {
+                && scoring::zero_step_wander(data, &scored.fit).is_some_and(|wander| {
                     let step = scored.fit.parameter(Param::ForceOffsetN).unwrap_or(0.0);
-                    step.abs() <= MIN_STEP_OVER_WANDER * wander
+                    step.abs() <= MIN_STEP_OVER_WANDER * wander.rms_n
                 })
             {
                 // A step of the zero no larger than the zero moves by itself between
@@ -799,6 +802,30 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 if !shown {
                     scored.significant = false;
                     scored.unseen_in_free_space = true;
+                } else if let (Some(wander), Some((first, last))) = (
+                    scoring::zero_step_wander(data, &scored.fit),
+                    scoring::free_span(data, scored.fit.start),
+                ) {
+                    // The drift's change of the zero between the free space's first and
+                    // last samples against the slow part of the zero's own wander grown
+                    // to windows that far apart (`flicker_growth`): a 1/f noise's slow
+                    // part is a trend over any record (an independent generator's clean
+                    // pink-noise records took drifts of 0.2-1.0 times this bar; the
+                    // project's 1/f recipe's spurious ones were at most 0.6 times it and
+                    // its true 3 mN/s drifts 1.3 times it and more). The white part of the
+                    // wander (the record's own sample noise averaged over a window) does
+                    // not grow, and the drift's estimate from every free sample averages
+                    // it out: growing it refused a true drift on taps under white noise,
+                    // whose free stretches allow only 8-sample windows.
+                    let span = (last - first) as f64;
+                    let change = drift.abs() * span * data.dt;
+                    let bar = scoring::MIN_DRIFT_OVER_WANDER
+                        * wander.slow_n()
+                        * scoring::flicker_growth(span, wander.window);
+                    if change <= bar {
+                        scored.significant = false;
+                        scored.within_zero_wander = true;
+                    }
                 }
             }
             Some(scored)

@@ -313,6 +313,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "no (its parameter stayed at the current model's value)"
             } else if c.unseen_in_free_space {
                 "no (the free-space force shows no such trend)"
+            } else if c.within_zero_wander && c.effect == Effect::ForceDrift {
+                "no (a drift no larger than the load cell's zero wanders by itself over the free space's span)"
             } else if c.within_zero_wander && c.effect == Effect::ForceOffset {
                 "no (a step no larger than the load cell's zero wanders by itself between adjacent stretches of the free space)"
             } else if c.within_zero_wander {
