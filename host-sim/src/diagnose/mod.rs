@@ -809,8 +809,9 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                     // The drift's change of the zero between the free space's first and
                     // last samples against the slow part of the zero's own wander grown
                     // to windows that far apart (`flicker_growth`): a 1/f noise's slow
-                    // part is a trend over any record (an independent generator's clean
-                    // pink-noise records took drifts of 0.2-1.0 times this bar; the
+                    // part is a trend over any record (of an independent generator's two
+                    // clean pink-noise records that took a drift, one is under this bar
+                    // and one, at 1.13 times it, still named; the
                     // project's 1/f recipe's spurious ones were at most 0.6 times it and
                     // its true 3 mN/s drifts 1.3 times it and more). The white part of the
                     // wander (the record's own sample noise averaged over a window) does
