@@ -665,6 +665,20 @@ pub fn contact_change_rms(data: &Prepared, a: &Fit, b: &Fit) -> f64 {
 /// one standard deviation (the shift's force no larger than the zero moves by itself).
 pub const MIN_SHIFT_OVER_WANDER: f64 = 1.0;
 
+/// A later contacts' shift of the contact point that moves their force
+/// ([`contact_change_rms`]) by no more than this many times the zero's wander between
+/// adjacent windows of the free space ([`zero_step_wander`]'s whole `rms_n`) is not told
+/// from that wander either: the bar of a load-cell step ([`MIN_STEP_OVER_WANDER`], 3) on
+/// the force the shift moves the later contacts by, since the change against the current
+/// model is about half that force (the current model's contact point already splits the
+/// difference between the first and the later contacts: true 0.2-mm shifts on the
+/// project's 1/f ramp-and-holds, 0.15 N on the later presses, changed the force by
+/// 0.057-0.072 N against the model without them). This measure sees a 1/f wander
+/// the stretch means' spread ([`free_space_wander`]) can miss: two or three free
+/// stretches give that spread one or two degrees of freedom, and it came out 0 on three
+/// of the project's clean 1/f records that took a shift.
+pub const MIN_SHIFT_OVER_ZERO_WANDER: f64 = 1.5;
+
 #[allow(clippy::too_many_arguments)]
 pub(super) fn score(
     effect: Effect,
