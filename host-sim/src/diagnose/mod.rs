@@ -170,7 +170,10 @@ pub struct Candidate {
     pub unseen_in_free_space: bool,
     /// A shift of the later contacts' point that moves their force by no more than the
     /// load cell's zero wanders between free stretches ([`scoring::free_space_wander`],
-    /// [`scoring::MIN_SHIFT_OVER_WANDER`]), or a load-cell step no larger than a few
+    /// [`scoring::MIN_SHIFT_OVER_WANDER`]) or by no more than 1.5 times the slow part of
+    /// its wander between adjacent windows of the free space
+    /// ([`scoring::MIN_SHIFT_OVER_ZERO_WANDER`]), or a
+    /// load-cell step no larger than a few
     /// times the zero's own wander between adjacent windows of the free space
     /// ([`scoring::zero_step_wander`], [`scoring::MIN_STEP_OVER_WANDER`]), or a drift
     /// whose change over the free space's span is no larger than a few times the slow
@@ -760,7 +763,7 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 && (scoring::free_space_wander(data, &scored.fit, noise_fraction)
                     .is_some_and(|w| shift_change() <= MIN_SHIFT_OVER_WANDER * w)
                     || scoring::zero_step_wander(data, &scored.fit).is_some_and(|w| {
-                        shift_change() <= scoring::MIN_SHIFT_OVER_ZERO_WANDER * w.rms_n
+                        shift_change() <= scoring::MIN_SHIFT_OVER_ZERO_WANDER * w.slow_n()
                     }))
             {
                 // The later contacts' force moved by no more than the load cell's zero
@@ -771,12 +774,13 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // the plain spread of the means about the current model, its hidden
                 // shifts were 1.8-340× the wander but one at 0.8, on a pink-noise
                 // teleoperation record, and the spurious ones 0.46-1.39); or by no more
-                // than 1.5 times the zero's wander between adjacent windows of the free
-                // space (`MIN_SHIFT_OVER_ZERO_WANDER`: the step's bar on the shift's own
-                // force; the spurious shifts the first measure let through were
-                // 0.43-1.56 times this wander on 120 clean 1/f ramp-and-holds of unseen
-                // seeds and 0.39-1.17 on the independent generator's clean records; true
-                // 0.2-mm shifts on those ramp-and-holds 3.5-9.5 times it).
+                // than 1.5 times the slow part of the zero's wander between adjacent
+                // windows of the free space (`MIN_SHIFT_OVER_ZERO_WANDER`: the step's bar
+                // on the shift's own force; the spurious shifts the first measure let
+                // through were 0.43-1.56 times the whole wander on 120 clean 1/f
+                // ramp-and-holds of unseen seeds and 0.39-1.17 on the independent
+                // generator's clean records; true 0.2-mm shifts on those ramp-and-holds
+                // 3.5-9.5 times it; the white part averages out of the shift's estimate).
                 scored.significant = false;
                 scored.within_zero_wander = true;
             }

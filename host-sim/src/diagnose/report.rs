@@ -318,7 +318,7 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
             } else if c.within_zero_wander && c.effect == Effect::ForceOffset {
                 "no (a step no larger than the load cell's zero wanders by itself between adjacent stretches of the free space)"
             } else if c.within_zero_wander {
-                "no (the later contacts' force moves no more than the load cell's zero wanders between free stretches)"
+                "no (the later contacts' force moves no more than the load cell's zero wanders by itself in the free space)"
             } else if c.unseen_at_contact_edges {
                 "no (the contact onsets and lift-offs do not show it)"
             } else if c.a_damping_change_in_contact {
