@@ -172,8 +172,7 @@ pub struct Candidate {
     /// load cell's zero wanders between free stretches ([`scoring::free_space_wander`],
     /// [`scoring::MIN_SHIFT_OVER_WANDER`]) or by no more than 1.5 times the slow part of
     /// its wander between adjacent windows of the free space
-    /// ([`scoring::MIN_SHIFT_OVER_ZERO_WANDER`]), or a
-    /// load-cell step no larger than a few
+    /// ([`scoring::MIN_SHIFT_OVER_ZERO_WANDER`]), or a load-cell step no larger than a few
     /// times the zero's own wander between adjacent windows of the free space
     /// ([`scoring::zero_step_wander`], [`scoring::MIN_STEP_OVER_WANDER`]), or a drift
     /// whose change over the free space's span is no larger than a few times the slow
