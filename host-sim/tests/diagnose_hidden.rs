@@ -772,10 +772,10 @@ fn a_contact_shift_within_the_zero_wander_of_pink_noise_is_not_named() {
 
 /// Nor where it moves their force by no more than 1.5 times the slow part of the zero's
 /// wander between adjacent windows of the free space ([`MIN_SHIFT_OVER_ZERO_WANDER`]),
-/// which sees a 1/f
-/// wander the stretch means' spread, from two or three free stretches, can miss: on the
-/// same 1/f recipe's seeds 200-259 (two and three presses, seeds never used while the
-/// bar was set), 14 of 120 clean records took a shift past the first measure, at
+/// which sees a 1/f wander the stretch means' spread, from two or three free stretches,
+/// can miss: on the same 1/f recipe's seeds 200-259 (two and three presses; fresh when
+/// the rule was first checked on them, but its bar then moved from 2 to 1.5 on these
+/// records), 14 of 120 clean records took a shift past the first measure, at
 /// 0.43-1.56 times the whole wander, these three among them (2 of the 14 keep theirs).
 /// A true shift of 0.5 mm on the same records is named, within 10 %.
 ///
