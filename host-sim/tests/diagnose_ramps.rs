@@ -5,9 +5,10 @@
 //! but not damping from Coulomb friction (both ±F at ±v) or a mass (δ̈ = 0 but at the
 //! reversal): those two are listed, not tried.
 //!
-//! Also two records shaped after an independent generator's failures (2026-11-28): a
-//! staircase of ramp-and-holds on a relaxing gel and a chirp pressed in contact behind a
-//! delayed force channel.
+//! Also records shaped after an independent generator's failures (2026-11-28): a
+//! staircase of ramp-and-holds on a relaxing gel, a chirp pressed in contact behind a
+//! delayed force channel, and an unloading from a hold in contact, with and without a
+//! delay.
 
 use std::io::Write as _;
 use std::path::Path;
@@ -42,8 +43,20 @@ fn diagnose_record(
     noise_n: f64,
     seed: u64,
 ) -> Diagnosis {
+    diagnose_record_at(dir, name, x, force, noise_n, 1e-3, seed)
+}
+
+/// [`diagnose_record`] at a sample time of `dt` \[s\].
+fn diagnose_record_at(
+    dir: &Path,
+    name: &str,
+    x: &[f64],
+    force: &[f64],
+    noise_n: f64,
+    dt: f64,
+    seed: u64,
+) -> Diagnosis {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let dt = 1e-3;
     let path = dir.join(name);
     let mut f = std::fs::File::create(&path).expect("create");
     writeln!(f, "time_s,position_m,force_n").expect("write");
@@ -185,6 +198,60 @@ fn kelvin_voigt_ramp_from_free_space_fits_the_onset_step_as_damping() {
         "no onset, nothing compared"
     );
     assert_eq!(d.final_fit.parameter(Param::Lambda), Some(0.0));
+}
+
+/// A Kelvin-Voigt material (κ = 2e4 N/m, λ = 1e3 N·s/m) held 2 mm deep from the record's
+/// start, then unloaded at 2 mm/s to 1 mm out and held there; 500 Hz, white noise of
+/// 50 mN, the force channel `delay_s` behind the position's. One speed and no onset from
+/// free space, but the probe starts moving in contact: the force steps by λv there (the
+/// elastic force is continuous), and a delayed channel steps τ later. Held at 0, the
+/// damping's step was read as a stiffening law: an independent generator's clean
+/// unloading from a hold took an exponential law at 8× its noise floor, and two with a
+/// 50 ms delay the same, the delay not tried at one speed.
+fn unloading_from_a_hold(dir: &Path, name: &str, delay_s: f64, seed: u64) -> Diagnosis {
+    let (kappa, lambda, v, dt) = (2e4, 1e3, 2e-3, 2e-3);
+    let position = |t: f64| (2e-3 - v * (t - 2.0).max(0.0)).max(-1e-3);
+    let law = |t: f64| -> f64 {
+        let (x, moving) = (position(t), t > 2.0 && position(t) > -1e-3);
+        let rate = if moving { -v } else { 0.0 };
+        if x > 0.0 {
+            (kappa * x + lambda * rate).max(0.0)
+        } else {
+            0.0
+        }
+    };
+    let samples = (4.5 / dt) as usize;
+    let x: Vec<f64> = (0..samples).map(|i| position(i as f64 * dt)).collect();
+    let force: Vec<f64> = (0..samples).map(|i| law(i as f64 * dt - delay_s)).collect();
+    diagnose_record_at(dir, name, &x, &force, 0.05, dt, seed)
+}
+
+#[test]
+fn an_unloading_from_a_hold_in_contact_fits_the_step_as_damping_and_names_a_delay() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for seed in [21, 22, 23] {
+        let name = format!("kv-unloading-from-a-hold-{seed}.csv");
+        let d = unloading_from_a_hold(dir.path(), &name, 0.0, seed);
+        assert!(d.effects_added().is_empty(), "{name}: {}", d.final_model());
+        assert!(!d.damping_held, "{name}");
+        let drop = d.onset_damping_delta_bic.expect("both readings compared");
+        assert!(
+            drop < -Options::default().min_bic_drop,
+            "{name}: ΔBIC {drop}"
+        );
+        let fitted = d.final_fit.parameter(Param::Lambda).expect("λ");
+        assert!(
+            (fitted / 1e3 - 1.0).abs() < 0.1,
+            "{name}: λ = {fitted:.4e} against 1e3"
+        );
+
+        let name = format!("kv-unloading-from-a-hold-delayed-{seed}.csv");
+        let d = unloading_from_a_hold(dir.path(), &name, 0.04, seed);
+        let first = d.steps.first().map(|s| s.effect.id());
+        assert_eq!(first, Some("time_delay"), "{name}: {}", d.final_model());
+        let tau = d.final_fit.parameter(Param::DelayS).expect("a delay");
+        assert!((tau / 0.04 - 1.0).abs() < 0.1, "{name}: τ = {tau}");
+    }
 }
 
 /// A staircase stress-relaxation test on a gel (κ = 198 N/m, λ = 3.3 N·s/m, one relaxation

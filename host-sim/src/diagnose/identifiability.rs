@@ -204,12 +204,12 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
         )
     } else if e.is_rate_effect() && d.damping_held {
         (
-            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0: its one trace, the step λv at a contact onset from free space, is absent or not significant)",
+            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept and the linear damping held at 0: its one trace, the step λv at a contact onset from free space or where the probe stops or starts moving in contact, is absent or not significant)",
             separating_motion(Effect::PowerLawStiffness, e),
         )
     } else if e.is_rate_effect() {
         (
-            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept; the linear damping is fitted from its step λv at the contact onset)",
+            "each depth is passed at one speed: a rate effect is a function of depth here, the signature of an elastic law (the elastic reading is kept; the linear damping is fitted from its step λv at the contact onset or where the probe stops or starts moving in contact)",
             separating_motion(Effect::PowerLawStiffness, e),
         )
     } else {

@@ -33,10 +33,12 @@
 //! A record that passes each depth at one speed (a loading ramp) cannot identify a rate
 //! effect: damping, delay, inertia and friction are not tried. The baseline's own linear
 //! damping λ·δ̇ is held at 0 there, except on a record whose contact begins from free
-//! space (and a baseline whose damping does not depend on depth): λ·δ̇ is then the step
-//! λv at the onset, which no elastic law makes, and the workflow runs with the damping
-//! free and held and keeps the free reading only if its BIC falls by the acceptance
-//! threshold ([`Diagnosis::damping_held`]).
+//! space or that holds still in contact (and a baseline whose damping does not depend
+//! on depth): λ·δ̇ is then the step λv at the onset or where the probe stops or starts
+//! moving, which no elastic law makes, and the workflow runs with the damping free and
+//! held and keeps the free reading only if its BIC falls by the acceptance threshold
+//! ([`Diagnosis::damping_held`]). A hold in contact also lets a delay be tried: a
+//! delayed channel steps τ after the motion there.
 //!
 //! The loop stops when no candidate passes, or after [`Options::max_steps`]. Then the
 //! **backward check**: every added effect must still pass the same rule against the
@@ -299,13 +301,14 @@ pub struct Diagnosis {
     /// contact).
     pub unidentifiable: Vec<Effect>,
     /// The baseline's damping is held at 0 in every model: the record passes each depth
-    /// at one speed, and either starts in contact (λ·δ̇ is then indistinguishable from
-    /// the tare), or the baseline's damping depends on depth (no step at the onset), or
-    /// the contact onset's step λv did not pass the acceptance rule's BIC drop against
-    /// the elastic reading ([`diagnose`] fits both).
+    /// at one speed, and either starts in contact without holding still in it (λ·δ̇ is
+    /// then indistinguishable from the tare), or the baseline's damping depends on depth
+    /// (no step at the onset), or the step λv at the contact onset or the hold's edges
+    /// did not pass the acceptance rule's BIC drop against the elastic reading
+    /// ([`diagnose`] fits both).
     pub damping_held: bool,
     /// Where both readings were fitted (a one-speed record whose contact begins from free
-    /// space): BIC of the final model with the damping free minus with it held, λ counted
+    /// space or that holds still in contact; the name keeps the onset's): BIC of the final model with the damping free minus with it held, λ counted
     /// as a parameter, on effective samples. The free reading is kept below
     /// −[`Options::min_bic_drop`].
     pub onset_damping_delta_bic: Option<f64>,
@@ -380,6 +383,11 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // power law, k·n·δ^(n−1)·τ·δ̇ is a depth-dependent damping); on constant-speed strokes
     // it shows only at the reversals. A contact onset in the window (the force rising τ
     // after the contact) or a second frequency identifies it.
+    // A hold in contact on a linear damping's baseline: the force steps by λ·Δv where
+    // the probe stops or starts (below), and a delayed channel steps τ later, a transient
+    // that neither the damping (λ − κ·τ at one speed) nor the contact point takes.
+    let linear_damping = !baseline.contains(&Effect::DepthDependentDamping);
+    let step_in_contact = holds && linear_damping;
     let in_contact_throughout = data.in_contact_from(data.fit_start());
     let one_frequency_in_contact = one_speed_each_way && in_contact_throughout;
     let unidentifiable: Vec<Effect> = Effect::ALL
@@ -416,7 +424,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
                     || (one_speed_each_way
                         && (in_contact_throughout || speed_change < SPEED_CHANGE_MIN))
             }
-            Effect::TimeDelay => one_speed || one_frequency_in_contact,
+            Effect::TimeDelay => (one_speed && !step_in_contact) || one_frequency_in_contact,
             _ => one_speed && e.is_rate_effect(),
         })
         .collect();
@@ -427,8 +435,12 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // past the contact point) holds it at 0: the step is the tare's there. So does a
     // baseline whose damping depends on depth (Hunt-Crossley: λ·δ^q·δ̇ is 0 at the onset
     // and, at one speed, a second power law).
-    let onset_from_free_space =
-        data.depth_m[data.fit_start()] < 0.0 && !baseline.contains(&Effect::DepthDependentDamping);
+    // The same step shows where the probe stops or starts moving in contact (a hold's
+    // edges, the elastic force continuous across them): a ramp-and-hold that starts in
+    // contact shows its damping there (held at 0, an independent generator's clean
+    // Kelvin-Voigt unloading from a hold took an exponential law for the missing step,
+    // and two with a delay the same, at 8× their noise floor).
+    let onset_from_free_space = data.depth_m[data.fit_start()] < 0.0 && linear_damping;
     let setting = Setting {
         options,
         baseline,
@@ -442,10 +454,10 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         speed_change,
     };
     let run = |damping_held: bool| workflow(data, &setting, damping_held);
-    if !(one_speed && onset_from_free_space) {
+    if !(one_speed && (onset_from_free_space || step_in_contact)) {
         return run(one_speed);
     }
-    // Both readings of a one-speed record with an onset: the damping free (a
+    // Both readings of a one-speed record with an onset or a hold: the damping free (a
     // Kelvin-Voigt material's step λv at the onset) and held (the elastic reading; on a
     // stiffening law the free damping's step can lead the contact point's search into a
     // worse basin). The free reading is kept only if its BIC falls by the acceptance

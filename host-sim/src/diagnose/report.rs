@@ -672,7 +672,7 @@ pub fn markdown(
     if let Some(drop) = d.onset_damping_delta_bic {
         let _ = writeln!(
             out,
-            "\n**The linear damping at one speed.** Each depth is passed at one speed, but the contact begins from free space, where the damping λ·δ̇ is the step λv that no elastic law makes. The workflow was run with the damping free and held at 0: ΔBIC (free − held, λ counted) {drop:+.1} on effective samples; the {} reading is kept (the free one needs a drop below −{}).",
+            "\n**The linear damping at one speed.** Each depth is passed at one speed, but the contact begins from free space or the probe stops or starts moving in contact, where the damping λ·δ̇ is the step λv that no elastic law makes. The workflow was run with the damping free and held at 0: ΔBIC (free − held, λ counted) {drop:+.1} on effective samples; the {} reading is kept (the free one needs a drop below −{}).",
             if d.damping_held { "held" } else { "free" },
             options.min_bic_drop,
         );
