@@ -769,7 +769,10 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
             // (The wander about the shifted fit: about a model without a true shift, the
             // later contacts' force reaches into samples the detector calls free, and
             // their means scatter by the shift's own footprint.)
-            let shift_change = || scoring::contact_change_rms(data, &scored.fit, &current);
+            // (Formed once, when the first measure asks for it.)
+            let change = std::cell::OnceCell::new();
+            let shift_change =
+                || *change.get_or_init(|| scoring::contact_change_rms(data, &scored.fit, &current));
             if e == Effect::ContactPointOffset
                 && (scoring::free_space_wander(data, &scored.fit, noise_fraction)
                     .is_some_and(|w| shift_change() <= MIN_SHIFT_OVER_WANDER * w)
