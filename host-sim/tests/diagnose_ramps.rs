@@ -88,6 +88,24 @@ fn diagnose_written(path: &Path, name: &str) -> Diagnosis {
     .diagnosis
 }
 
+/// Nothing added to the Kelvin-Voigt baseline of the diagnosis `d` of the file `name`,
+/// whose damping both readings were fitted for and the free one won by more than the
+/// acceptance threshold, λ within 10 % of `lambda` \[N·s/m\].
+fn assert_damping_fitted_from_its_step(d: &Diagnosis, name: &str, lambda: f64) {
+    assert!(d.effects_added().is_empty(), "{name}: {}", d.final_model());
+    assert!(!d.damping_held, "{name}");
+    let drop = d.onset_damping_delta_bic.expect("both readings compared");
+    assert!(
+        drop < -Options::default().min_bic_drop,
+        "{name}: ΔBIC {drop}"
+    );
+    let fitted = d.final_fit.parameter(Param::Lambda).expect("λ");
+    assert!(
+        (fitted / lambda - 1.0).abs() < 0.1,
+        "{name}: λ = {fitted:.4e} against {lambda:.4e}"
+    );
+}
+
 fn exponent(d: &Diagnosis) -> f64 {
     d.final_fit.parameter(Param::N).expect("a power law")
 }
@@ -170,19 +188,7 @@ fn kelvin_voigt_ramp_from_free_space_fits_the_onset_step_as_damping() {
         let x: Vec<f64> = (0..4000).map(|i| -1e-3 + v * dt * i as f64).collect();
         let name = format!("kv-from-free-space-{seed}.csv");
         let d = diagnose_record(dir.path(), &name, &x, &kv(&x), 0.05, seed);
-        assert!(d.effects_added().is_empty(), "{name}: {}", d.final_model());
-        assert!(!d.damping_held, "{name}");
-        // Both readings were fitted, and the free one won by more than the threshold.
-        let drop = d.onset_damping_delta_bic.expect("both readings compared");
-        assert!(
-            drop < -Options::default().min_bic_drop,
-            "{name}: ΔBIC {drop}"
-        );
-        let fitted = d.final_fit.parameter(Param::Lambda).expect("λ");
-        assert!(
-            (fitted / lambda - 1.0).abs() < 0.1,
-            "{name}: λ = {fitted:.4e} against {lambda:.4e}"
-        );
+        assert_damping_fitted_from_its_step(&d, &name, lambda);
         let stiffness = d.final_fit.parameter(Param::Kappa).expect("κ");
         assert!(
             (stiffness / kappa - 1.0).abs() < 0.05,
@@ -232,18 +238,7 @@ fn an_unloading_from_a_hold_in_contact_fits_the_step_as_damping_and_names_a_dela
     for seed in [21, 22, 23] {
         let name = format!("kv-unloading-from-a-hold-{seed}.csv");
         let d = unloading_from_a_hold(dir.path(), &name, 0.0, seed);
-        assert!(d.effects_added().is_empty(), "{name}: {}", d.final_model());
-        assert!(!d.damping_held, "{name}");
-        let drop = d.onset_damping_delta_bic.expect("both readings compared");
-        assert!(
-            drop < -Options::default().min_bic_drop,
-            "{name}: ΔBIC {drop}"
-        );
-        let fitted = d.final_fit.parameter(Param::Lambda).expect("λ");
-        assert!(
-            (fitted / 1e3 - 1.0).abs() < 0.1,
-            "{name}: λ = {fitted:.4e} against 1e3"
-        );
+        assert_damping_fitted_from_its_step(&d, &name, 1e3);
 
         let name = format!("kv-unloading-from-a-hold-delayed-{seed}.csv");
         let d = unloading_from_a_hold(dir.path(), &name, 0.04, seed);
