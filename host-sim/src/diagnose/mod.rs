@@ -308,8 +308,9 @@ pub struct Diagnosis {
     /// ([`diagnose`] fits both).
     pub damping_held: bool,
     /// Where both readings were fitted (a one-speed record whose contact begins from free
-    /// space or that holds still in contact; the name keeps the onset's): BIC of the final model with the damping free minus with it held, λ counted
-    /// as a parameter, on effective samples. The free reading is kept below
+    /// space or that holds still in contact; the name keeps the onset's): BIC of the
+    /// final model with the damping free minus with it held, λ counted as a parameter,
+    /// on effective samples. The free reading is kept below
     /// −[`Options::min_bic_drop`].
     pub onset_damping_delta_bic: Option<f64>,
 }
@@ -435,11 +436,6 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // past the contact point) holds it at 0: the step is the tare's there. So does a
     // baseline whose damping depends on depth (Hunt-Crossley: λ·δ^q·δ̇ is 0 at the onset
     // and, at one speed, a second power law).
-    // The same step shows where the probe stops or starts moving in contact (a hold's
-    // edges, the elastic force continuous across them): a ramp-and-hold that starts in
-    // contact shows its damping there (held at 0, an independent generator's clean
-    // Kelvin-Voigt unloading from a hold took an exponential law for the missing step,
-    // and two with a delay the same, at 8× their noise floor).
     let onset_from_free_space = data.depth_m[data.fit_start()] < 0.0 && linear_damping;
     let setting = Setting {
         options,
@@ -454,6 +450,11 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
         speed_change,
     };
     let run = |damping_held: bool| workflow(data, &setting, damping_held);
+    // The same step shows where the probe stops or starts moving in contact (a hold's
+    // edges, the elastic force continuous across them): a ramp-and-hold that starts in
+    // contact shows its damping there (held at 0, an independent generator's clean
+    // Kelvin-Voigt unloading from a hold took an exponential law for the missing step,
+    // and two with a delay the same, at 8× their noise floor).
     if !(one_speed && (onset_from_free_space || step_in_contact)) {
         return run(one_speed);
     }
