@@ -200,7 +200,7 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
         // throughout, see `diagnose`.)
         (
             "the record stays in contact at one speed each way (one frequency): a delay τ only rotates the force's phase there, κ·δ(t − τ) + λ·δ̇(t − τ) = (κ cos ωτ + λω sin ωτ)·(δ − δ₀) + (λ cos ωτ − κ sin ωτ/ω)·δ̇ + const on a sinusoid, which the stiffness and damping re-split exactly (under a power law its first-order term is a depth-dependent damping); on constant-speed strokes it shows only at the reversals",
-            "a lift-off and a new contact (the force then rises τ after the contact) or motion at several frequencies",
+            "a lift-off and a new contact (the force then rises τ after the contact), a hold in contact (the force still moving τ after the probe stops) or motion at several frequencies",
         )
     } else if e.is_rate_effect() && d.damping_held {
         (

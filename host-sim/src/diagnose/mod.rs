@@ -33,12 +33,13 @@
 //! A record that passes each depth at one speed (a loading ramp) cannot identify a rate
 //! effect: damping, delay, inertia and friction are not tried. The baseline's own linear
 //! damping λ·δ̇ is held at 0 there, except on a record whose contact begins from free
-//! space or that holds still in contact (and a baseline whose damping does not depend
-//! on depth): λ·δ̇ is then the step λv at the onset or where the probe stops or starts
-//! moving, which no elastic law makes, and the workflow runs with the damping free and
-//! held and keeps the free reading only if its BIC falls by the acceptance threshold
-//! ([`Diagnosis::damping_held`]). A hold in contact also lets a delay be tried: a
-//! delayed channel steps τ after the motion there.
+//! space (and a baseline whose damping does not depend on depth, 0 at the onset) or that
+//! holds still in contact: the damping is then the step λv (λ·δ^q·v) at the onset or
+//! where the probe stops or starts moving, which no elastic law makes, and the workflow
+//! runs with the damping free and held and keeps the free reading only if its BIC falls
+//! by the acceptance threshold ([`Diagnosis::damping_held`]). A hold in contact also
+//! lets a delay be tried, at one speed and on a record in contact throughout at one
+//! speed each way: a delayed channel still moves τ after the probe stops there.
 //!
 //! The loop stops when no candidate passes, or after [`Options::max_steps`]. Then the
 //! **backward check**: every added effect must still pass the same rule against the
@@ -383,12 +384,16 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     // + const, which the baseline's stiffness and damping re-split exactly (and, under a
     // power law, k·n·δ^(n−1)·τ·δ̇ is a depth-dependent damping); on constant-speed strokes
     // it shows only at the reversals. A contact onset in the window (the force rising τ
-    // after the contact) or a second frequency identifies it.
-    // A hold in contact on a linear damping's baseline: the force steps by λ·Δv where
-    // the probe stops or starts (below), and a delayed channel steps τ later, a transient
-    // that neither the damping (λ − κ·τ at one speed) nor the contact point takes.
+    // after the contact), a second frequency or a hold in contact identifies it (below:
+    // the force still moving τ after the probe stops; listed as not identifiable there,
+    // an independent generator's delayed preload-ramp-hold-retract records, read as never
+    // leaving contact, took a power law at 2.7-5× their noise floor).
+    // A hold in contact: the force steps by the damping's λ·Δv where the probe stops or
+    // starts (below; a depth-dependent damping's λ·δ^q·Δv too, δ > 0 there), and a
+    // delayed channel steps τ later, a transient that neither the damping (λ − κ·τ at one
+    // speed) nor the contact point takes.
     let linear_damping = !baseline.contains(&Effect::DepthDependentDamping);
-    let step_in_contact = holds && linear_damping;
+    let step_in_contact = holds;
     let in_contact_throughout = data.in_contact_from(data.fit_start());
     let one_frequency_in_contact = one_speed_each_way && in_contact_throughout;
     let unidentifiable: Vec<Effect> = Effect::ALL
@@ -425,7 +430,7 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
                     || (one_speed_each_way
                         && (in_contact_throughout || speed_change < SPEED_CHANGE_MIN))
             }
-            Effect::TimeDelay => (one_speed && !step_in_contact) || one_frequency_in_contact,
+            Effect::TimeDelay => (one_speed || one_frequency_in_contact) && !step_in_contact,
             _ => one_speed && e.is_rate_effect(),
         })
         .collect();

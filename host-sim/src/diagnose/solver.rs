@@ -961,7 +961,18 @@ fn fit_on(
         }
         nl = best.2;
     }
-    let (nl, rss) = problem.levenberg_marquardt(nl, &knobs, effort.iterations);
+    let (mut nl, mut rss) = problem.levenberg_marquardt(nl, &knobs, effort.iterations);
+    // A power law with a depth-dependent damping, both searched: the knob-by-knob grids
+    // trade the damping's exponent against the law's (and the contact point), and from
+    // q = 0 they can stall in a plain damping's basin. Hunt-Crossley's own tie, q = n
+    // (eq. 3), is a second start for the joint fit; the better kept.
+    if knobs.contains(&Knob::DampingExponent) && knobs.contains(&Knob::Exponent) && nl.q != nl.n {
+        let tied = Nonlinear { q: nl.n, ..nl };
+        let (t, r) = problem.levenberg_marquardt(tied, &knobs, effort.iterations);
+        if r < rss {
+            (nl, rss) = (t, r);
+        }
+    }
     let nl = if effort.golden > 0 && knobs.contains(&Knob::ContactPosition) {
         problem.contact_grid(nl, rss, &knobs, effort.iterations)
     } else {
