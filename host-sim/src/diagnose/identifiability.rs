@@ -187,8 +187,8 @@ pub fn unidentifiable_reason(d: &Diagnosis, e: Effect) -> (&'static str, &'stati
         )
     } else if e == Effect::ForceDrift {
         (
-            "the record leaves contact at most once: a zero that drifts is a slope in time, which the contact's own force (relaxation, creep, the law along a stroke) can take",
-            "lift-offs spread over the record (the free-space force then shows the drift)",
+            "the record's free space is at most one stretch, too short to see the zero at two times: a zero that drifts is a slope in time, which the contact's own force (relaxation, creep, the law along a stroke) can take",
+            "lift-offs spread over the record, or a longer stay out of contact (the free-space force then shows the drift)",
         )
     } else if e == Effect::ContactPointOffset {
         (

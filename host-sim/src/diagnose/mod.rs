@@ -72,7 +72,7 @@ pub use self::identifiability::{
 pub use self::localisation::{localise, Localisation, PHASE_ORDER};
 pub use self::scoring::{delta_bic, noise_sample_fraction, physical};
 use self::scoring::{
-    free_runs, free_space_trend, rss_floor, samples_counted, score, MIN_FREE_SPACE_TREND,
+    free_space_trend, rss_floor, samples_counted, score, trend_runs, MIN_FREE_SPACE_TREND,
     MIN_SHIFT_OVER_WANDER, MIN_STEP_OVER_WANDER,
 };
 use self::solver::{fit, Effort, Fit};
@@ -410,12 +410,14 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             Effect::Relaxation => one_speed && !holds,
             // A shifted point for the later contacts: with none, the contact refinement.
             Effect::ContactPointOffset => data.first_contact_end >= data.len(),
-            // A drift of the zero is a slope in time: free space at two times, a contact
-            // between them, shows it; with one stretch of free space a slope in time is
-            // the contact's own (relaxation, creep, the law along a monotonic stroke).
-            Effect::ForceDrift => {
-                hold_tare || free_runs(data, data.fit_start(), MIN_FREE_STRETCH).len() < 2
-            }
+            // A drift of the zero is a slope in time: free space at two times shows it
+            // (two stretches, or the two ends of one long one: a preload-ramp-hold test
+            // that retracts and stays out; listed as not identifiable there, an
+            // independent generator's drifts on such records were left at 2-9× the
+            // noise floor); with a short stretch of free space a slope in time is the
+            // contact's own (relaxation, creep, the law along a monotonic stroke). The
+            // candidate is named only where the free space shows the trend (below).
+            Effect::ForceDrift => hold_tare || trend_runs(data, data.fit_start()).len() < 2,
             // Coulomb friction's ±F_c is the damping's ±λv only where the speed along
             // each stroke is constant.
             Effect::CoulombFriction => {

@@ -452,14 +452,35 @@ pub fn edge_rss(
     edges.then(|| (rss(fit), rss(current), counted.len()))
 }
 
+/// Fewest fitting samples in each half of a record's one free stretch for its halves to
+/// count as two stretches of free space ([`trend_runs`]).
+pub const MIN_TREND_HALF: usize = 50;
+
+/// The stretches of free space from `start` on that show the zero at different times, as
+/// (first, length) into `data[start..]`: the runs of at least [`super::MIN_FREE_STRETCH`]
+/// fitting samples out of contact, or, where there is one such run of at least
+/// 2·[`MIN_TREND_HALF`], its two halves (a probe that leaves contact once and stays out,
+/// or starts out and presses to the end, sees the zero at the start and at the end of
+/// that stretch). Fewer than two: the free space cannot show a trend in time.
+pub fn trend_runs(data: &Prepared, start: usize) -> Vec<(usize, usize)> {
+    let runs = free_runs(data, start, super::MIN_FREE_STRETCH);
+    match runs[..] {
+        [(first, len)] if len >= 2 * MIN_TREND_HALF => {
+            vec![(first, len / 2), (first + len / 2, len - len / 2)]
+        }
+        _ => runs,
+    }
+}
+
 /// |t| a drift's slope must reach in the free space ([`free_space_trend`]).
 pub const MIN_FREE_SPACE_TREND: f64 = 3.0;
 
 /// The trend in time of the force over the record's free space from `start` on: the slope
 /// \[N/s\] of the weighted line through the force's means over the stretches out of
-/// contact (at least [`super::MIN_FREE_STRETCH`] fitting samples each, weighted by the
-/// noise of a mean of that many samples: σ² / (n·`noise_fraction`), σ² the fitting
-/// samples' pooled scatter about their stretch's mean, at least `data.noise_n`²), and its
+/// contact ([`trend_runs`]: at least [`super::MIN_FREE_STRETCH`] fitting samples each, or
+/// the halves of one long stretch; weighted by the noise of a mean of that many samples:
+/// σ² / (n·`noise_fraction`), σ² the fitting samples' pooled scatter about their
+/// stretch's mean, at least `data.noise_n`²), and its
 /// t statistic, its standard error inflated by the means' scatter about the line where it
 /// exceeds the noise's (three stretches or more). The free space is where the load cell's
 /// zero is seen alone, whatever a model does in contact: a drift the contact samples
@@ -474,7 +495,7 @@ pub fn free_space_trend(
     // The fitting samples' own scatter about each stretch's mean, pooled: the noise of a
     // fitting sample as the record has it (block means of coloured noise are noisier than
     // `data.noise_n`'s white-noise scaling).
-    let runs = stretches(r, &free_runs(data, start, super::MIN_FREE_STRETCH));
+    let runs = stretches(r, &trend_runs(data, start));
     let (ss, dof) = runs
         .iter()
         .fold((0.0, 0usize), |(ss, dof), s| (ss + s.ss, dof + s.len - 1));
