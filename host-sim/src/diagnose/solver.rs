@@ -962,10 +962,11 @@ fn fit_on(
         nl = best.2;
     }
     let (mut nl, mut rss) = problem.levenberg_marquardt(nl, &knobs, effort.iterations);
-    // A power law with a depth-dependent damping, both searched: the knob-by-knob grids
-    // trade the damping's exponent against the law's (and the contact point), and from
-    // q = 0 they can stall in a plain damping's basin. Hunt-Crossley's own tie, q = n
-    // (eq. 3), is a second start for the joint fit; the better kept.
+    // A power law with a depth-dependent damping: the knob-by-knob grids trade the
+    // damping's exponent against the law's (and the contact point), and from q = 0 they
+    // can stall in a plain damping's basin, as can a refinement started from a fit made
+    // there (a delay added to such a baseline kept q = 0.40 for 1.5). Hunt-Crossley's own
+    // tie, q = n (eq. 3), is a second start for the joint fit; the better kept.
     if knobs.contains(&Knob::DampingExponent) && knobs.contains(&Knob::Exponent) && nl.q != nl.n {
         let tied = Nonlinear { q: nl.n, ..nl };
         let (t, r) = problem.levenberg_marquardt(tied, &knobs, effort.iterations);
