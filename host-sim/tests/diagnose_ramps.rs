@@ -318,27 +318,34 @@ fn a_hunt_crossley_unloading_from_a_hold_names_its_delay() {
 /// identifiable there, a delayed preload-ramp-hold record of an independent generator took
 /// a power law at 5× its noise floor.
 fn preload_press_and_hold(dir: &Path, name: &str, delay_s: f64, seed: u64) -> Diagnosis {
-    let (v, dt) = (2e-3, 2e-3);
-    let position =
-        |t: f64| 2e-3 + (v * (t - 1.0)).clamp(0.0, 1e-3) - (v * (t - 3.0)).clamp(0.0, 1e-3);
-    let rate = |t: f64| {
-        if (1.0..1.5).contains(&t) {
-            v
-        } else if (3.0..3.5).contains(&t) {
-            -v
-        } else {
-            0.0
-        }
-    };
+    let dt = 2e-3;
     let samples = (4.5 / dt) as usize;
-    let x: Vec<f64> = (0..samples).map(|i| position(i as f64 * dt)).collect();
+    let x: Vec<f64> = (0..samples)
+        .map(|i| press_and_back(i as f64 * dt, 2e-3, 1e-3).0)
+        .collect();
     let force: Vec<f64> = (0..samples)
         .map(|i| {
-            let t = i as f64 * dt - delay_s;
-            2e4 * position(t) + 1e3 * rate(t)
+            let (x, rate) = press_and_back(i as f64 * dt - delay_s, 2e-3, 1e-3);
+            2e4 * x + 1e3 * rate
         })
         .collect();
     diagnose_record_at(dir, name, &x, &force, 0.05, dt, seed, &Options::default())
+}
+
+/// The position \[m\] and rate \[m/s\] at `t` \[s\] of a probe held at `start_m` that presses
+/// 1 mm deeper at 2 mm/s from t = 1 s, holds, and from t = 3 s moves `back_m` out at
+/// 2 mm/s, then holds.
+fn press_and_back(t: f64, start_m: f64, back_m: f64) -> (f64, f64) {
+    let v = 2e-3;
+    let x = start_m + (v * (t - 1.0)).clamp(0.0, 1e-3) - (v * (t - 3.0)).clamp(0.0, back_m);
+    let rate = if (1.0..1.0 + 1e-3 / v).contains(&t) {
+        v
+    } else if (3.0..3.0 + back_m / v).contains(&t) {
+        -v
+    } else {
+        0.0
+    };
+    (x, rate)
 }
 
 #[test]
@@ -362,26 +369,17 @@ fn a_press_between_holds_in_contact_names_its_delay() {
 /// ends see the zero 4 s apart. Listed as not identifiable with one free stretch, an
 /// independent generator's drifts on such records were left at 2-9× their noise floor.
 fn preload_ramp_hold_retract(dir: &Path, name: &str, drift_n_per_s: f64, seed: u64) -> Diagnosis {
-    let (v, dt) = (2e-3, 2e-3);
-    let position =
-        |t: f64| 1e-3 + (v * (t - 1.0)).clamp(0.0, 1e-3) - (v * (t - 3.0)).clamp(0.0, 3e-3);
-    let rate = |t: f64| {
-        if (1.0..1.5).contains(&t) {
-            v
-        } else if (3.0..4.5).contains(&t) {
-            -v
-        } else {
-            0.0
-        }
-    };
+    let dt = 2e-3;
     let samples = (8.5 / dt) as usize;
-    let x: Vec<f64> = (0..samples).map(|i| position(i as f64 * dt)).collect();
+    let x: Vec<f64> = (0..samples)
+        .map(|i| press_and_back(i as f64 * dt, 1e-3, 3e-3).0)
+        .collect();
     let force: Vec<f64> = (0..samples)
         .map(|i| {
             let t = i as f64 * dt;
-            let x = position(t);
+            let (x, rate) = press_and_back(t, 1e-3, 3e-3);
             let contact = if x > 0.0 {
-                (2e4 * x + 1e3 * rate(t)).max(0.0)
+                (2e4 * x + 1e3 * rate).max(0.0)
             } else {
                 0.0
             };
