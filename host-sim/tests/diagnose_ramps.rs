@@ -318,15 +318,36 @@ fn a_hunt_crossley_unloading_from_a_hold_names_its_delay() {
 /// identifiable there, a delayed preload-ramp-hold record of an independent generator took
 /// a power law at 5× its noise floor.
 fn preload_press_and_hold(dir: &Path, name: &str, delay_s: f64, seed: u64) -> Diagnosis {
-    let dt = 2e-3;
-    let samples = (4.5 / dt) as usize;
+    press_record(dir, name, (2e-3, 1e-3, 4.5), delay_s, 0.0, seed)
+}
+
+/// A Kelvin-Voigt material (κ = 2e4 N/m, λ = 1e3 N·s/m, unilateral) under
+/// [`press_and_back`]`(t, start_m, back_m)` for `duration_s` (`motion`), sampled at 500 Hz
+/// with white noise of 50 mN, the force channel `delay_s` behind the position's and the
+/// load cell's zero drifting by `drift_n_per_s`; diagnosed from Kelvin-Voigt.
+fn press_record(
+    dir: &Path,
+    name: &str,
+    motion: (f64, f64, f64),
+    delay_s: f64,
+    drift_n_per_s: f64,
+    seed: u64,
+) -> Diagnosis {
+    let ((start_m, back_m, duration_s), dt) = (motion, 2e-3);
+    let samples = (duration_s / dt) as usize;
     let x: Vec<f64> = (0..samples)
-        .map(|i| press_and_back(i as f64 * dt, 2e-3, 1e-3).0)
+        .map(|i| press_and_back(i as f64 * dt, start_m, back_m).0)
         .collect();
     let force: Vec<f64> = (0..samples)
         .map(|i| {
-            let (x, rate) = press_and_back(i as f64 * dt - delay_s, 2e-3, 1e-3);
-            2e4 * x + 1e3 * rate
+            let t = i as f64 * dt;
+            let (x, rate) = press_and_back(t - delay_s, start_m, back_m);
+            let contact = if x > 0.0 {
+                (2e4 * x + 1e3 * rate).max(0.0)
+            } else {
+                0.0
+            };
+            contact + drift_n_per_s * t
         })
         .collect();
     diagnose_record_at(dir, name, &x, &force, 0.05, dt, seed, &Options::default())
@@ -369,24 +390,7 @@ fn a_press_between_holds_in_contact_names_its_delay() {
 /// ends see the zero 4 s apart. Listed as not identifiable with one free stretch, an
 /// independent generator's drifts on such records were left at 2-9× their noise floor.
 fn preload_ramp_hold_retract(dir: &Path, name: &str, drift_n_per_s: f64, seed: u64) -> Diagnosis {
-    let dt = 2e-3;
-    let samples = (8.5 / dt) as usize;
-    let x: Vec<f64> = (0..samples)
-        .map(|i| press_and_back(i as f64 * dt, 1e-3, 3e-3).0)
-        .collect();
-    let force: Vec<f64> = (0..samples)
-        .map(|i| {
-            let t = i as f64 * dt;
-            let (x, rate) = press_and_back(t, 1e-3, 3e-3);
-            let contact = if x > 0.0 {
-                (2e4 * x + 1e3 * rate).max(0.0)
-            } else {
-                0.0
-            };
-            contact + drift_n_per_s * t
-        })
-        .collect();
-    diagnose_record_at(dir, name, &x, &force, 0.05, dt, seed, &Options::default())
+    press_record(dir, name, (1e-3, 3e-3, 8.5), 0.0, drift_n_per_s, seed)
 }
 
 #[test]
