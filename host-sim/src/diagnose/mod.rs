@@ -169,7 +169,8 @@ pub struct Candidate {
     /// (`Knob::nested_value`): never significant.
     pub nested: bool,
     /// A drift of the zero the free space does not show
-    /// ([`scoring::free_space_trend`]): never significant.
+    /// ([`scoring::free_space_trend`]), or a load-cell step that fits the free space
+    /// before it worse ([`scoring::zero_before_step_rms`]): never significant.
     pub unseen_in_free_space: bool,
     /// A shift of the later contacts' point that moves their force by no more than the
     /// load cell's zero wanders between free stretches ([`scoring::free_space_wander`],
@@ -823,6 +824,16 @@ fn workflow(data: &Prepared, setting: &Setting, damping_held: bool) -> Option<Di
                 // steps were 8-250 times it).
                 scored.significant = false;
                 scored.within_zero_wander = true;
+            }
+            if e == Effect::ForceOffset
+                && scoring::zero_before_step_rms(data, &scored.fit, &current).is_some_and(
+                    |(with, without)| with > scoring::MAX_ZERO_BEFORE_STEP_GROWTH * without,
+                )
+            {
+                // The zero before the step is the free space's own: a step that fits it
+                // worse is a constant under the contact (`scoring::zero_before_step_rms`).
+                scored.significant = false;
+                scored.unseen_in_free_space = true;
             }
             if e == Effect::ForceDrift {
                 // The zero is seen alone in the free space: a drift it does not show

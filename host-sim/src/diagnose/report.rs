@@ -311,6 +311,8 @@ fn candidates_table(out: &mut String, candidates: &[Candidate]) {
                 "no (a mode slower than the record resolves: a trend with the load, which a drifting zero or another misfit makes too)"
             } else if c.nested {
                 "no (its parameter stayed at the current model's value)"
+            } else if c.unseen_in_free_space && c.effect == Effect::ForceOffset {
+                "no (the free space before the step fits worse: a constant under the contact, not a step of the zero)"
             } else if c.unseen_in_free_space {
                 "no (the free-space force shows no such trend)"
             } else if c.within_zero_wander && c.effect == Effect::ForceDrift {
