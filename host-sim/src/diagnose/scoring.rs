@@ -44,8 +44,8 @@ fn contiguous_fold(fold: usize, n: usize) -> std::ops::Range<usize> {
 /// compromise between the two zeros (an independent generator's sines and steps with a
 /// hidden step after their last lift-off: that fold 30 % worse, the step refused at 20×
 /// lower NRMSE; 6 of 8 named since). Estimated on the held-out fold, that zero absorbs
-/// the fold's share of a coloured noise's wander, which the model without the step cannot, and a 1/f noise
-/// passes for a step (an independent generator's pink-noise logs: 5 more extra
+/// the fold's share of a coloured noise's wander, which the model without the step
+/// cannot, and a 1/f noise passes for a step (an independent generator's pink-noise logs: 5 more extra
 /// effects in 32 logs); predicted without the step, the fold holds the step's fit's
 /// other parameters against a model that fitted them without it (a true step with a
 /// contact shift refused, held-out error 17 % worse there).
@@ -679,7 +679,7 @@ pub fn zero_step_wander(data: &Prepared, fit: &Fit) -> Option<ZeroWander> {
 
 /// A load-cell step whose fit leaves the free space before the step this many times
 /// worse (RMS residual, [`zero_before_step_rms`]) than the current model does is not a
-/// step of the zero ([`MAX_ZERO_BEFORE_STEP_GROWTH`]).
+/// step of the zero.
 pub const MAX_ZERO_BEFORE_STEP_GROWTH: f64 = 1.5;
 
 /// The RMS residual \[N\] of `a` and of `b` over the fitting samples out of contact before
@@ -688,9 +688,11 @@ pub const MAX_ZERO_BEFORE_STEP_GROWTH: f64 = 1.5;
 /// before it is the tare, which the current model could only split with the zero after
 /// it (the independent generator's hidden steps after a last lift-off: that free space
 /// 10-50 times better with the step). A step that leaves it worse has moved the zero
-/// under the contact instead, a constant taking up the law's misfit there (two of its
-/// records without a step took one so: 2.2 and 3.7 times worse before the step, both
-/// sides of it better in the release alone).
+/// under the contact instead, a constant taking up the law's misfit there (its r178, an
+/// exponential law without a step, took one so once the late step's fold stopped
+/// counting: the free space before the step 2.2 times worse, the release after it
+/// better; a contact shift's record, r248, is refused so at its first step and still
+/// takes one at its second).
 pub fn zero_before_step_rms(data: &Prepared, a: &Fit, b: &Fit) -> Option<(f64, f64)> {
     let start = a.start.max(b.start);
     let (ra, rb) = (a.residual(data), b.residual(data));
