@@ -695,11 +695,11 @@ pub const MAX_ZERO_BEFORE_STEP_GROWTH: f64 = 1.5;
 /// takes one at its second).
 pub fn zero_before_step_rms(data: &Prepared, a: &Fit, b: &Fit) -> Option<(f64, f64)> {
     let start = a.start.max(b.start);
-    let (ra, rb) = (a.residual(data), b.residual(data));
     let (ssa, ssb, n) = (start..data.offset_step.min(data.len()))
         .filter(|&i| !data.contact[i])
         .fold((0.0, 0.0, 0usize), |(ssa, ssb, n), i| {
-            let (x, y) = (ra[i - a.start], rb[i - b.start]);
+            let x = data.force_n[i] - a.prediction[i - a.start];
+            let y = data.force_n[i] - b.prediction[i - b.start];
             (ssa + x * x, ssb + y * y, n + 1)
         });
     (n > 0).then(|| ((ssa / n as f64).sqrt(), (ssb / n as f64).sqrt()))
