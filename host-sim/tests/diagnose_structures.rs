@@ -677,12 +677,12 @@ fn a_load_cell_shift_after_the_first_tap_is_named_not_a_contact_shift() {
 
 /// (time \[s\], position \[m\], force \[N\]) at 500 Hz of 40 s: free space for 1 s, a
 /// 0.5 s approach, a 0.7 Hz sine in contact (1.5 ± 0.8 mm deep) until 38 s, a 0.5 s
-/// retract and free space to the end, into κ = 5458 N/m, λ = 521 N·s/m, unilateral, over a
-/// 1.3 N offset, white noise of 0.05 N; the load cell's zero steps by `step_n` at 39.3 s,
-/// in the last free stretch, after the record's one contact.
-fn sine_then_a_late_zero_step(seed: u64, step_n: f64) -> Vec<(f64, f64, f64)> {
+/// retract and free space to the end, into κ = 5458 N/m and `lambda` \[N·s/m\],
+/// unilateral, over a 1.3 N offset, white noise of 0.05 N; the load cell's zero steps by
+/// `step_n` at 39.3 s, in the last free stretch, after the record's one contact.
+fn sine_then_a_late_zero_step(seed: u64, step_n: f64, lambda: f64) -> Vec<(f64, f64, f64)> {
     let mut rng = StdRng::seed_from_u64(seed);
-    let (kappa, lambda) = (5458.0, 520.7);
+    let kappa = 5458.0;
     let w = 2.0 * std::f64::consts::PI * 0.7;
     let phase = rng.random_range(0.0..std::f64::consts::TAU);
     let sine = |t: f64| 1.5e-3 + 0.8e-3 * (w * (t - 1.5) + phase).sin();
@@ -724,11 +724,36 @@ fn sine_then_a_late_zero_step(seed: u64, step_n: f64) -> Vec<(f64, f64, f64)> {
 fn a_load_cell_step_after_the_last_lift_off_is_named() {
     let dir = tempfile::tempdir().unwrap();
     for seed in 0..2 {
-        let rows = sine_then_a_late_zero_step(seed, 0.3);
+        let rows = sine_then_a_late_zero_step(seed, 0.3, 520.7);
         let d = diagnose_rows(dir.path(), &format!("step-{seed}.csv"), &rows);
         assert_eq!(d.effects_added(), ["force_offset"], "seed {seed}");
         assert_fitted_within_10_percent(&d, seed, &[(Param::ForceOffsetN, 0.3)]);
-        let rows = sine_then_a_late_zero_step(seed, 0.0);
+        let rows = sine_then_a_late_zero_step(seed, 0.0, 520.7);
+        let d = diagnose_rows(dir.path(), &format!("clean-{seed}.csv"), &rows);
+        assert!(
+            d.effects_added().is_empty(),
+            "seed {seed}: {:?}",
+            d.effects_added()
+        );
+    }
+}
+
+/// The same late step on a spring without damping: every fold but the one before the
+/// contact lies in contact, where the model with the step and the model without it
+/// predict alike once the contact point has moved to suit (an independent generator's
+/// spring sines r060 and r159: three folds within 10⁻⁴ of each other, the step better on
+/// the fourth by 13×, refused for 2 of the 3 better folds the rule asked for). Those
+/// folds neither see the step nor contradict it (`scoring::score` asks for better errors
+/// on the folds that differ); the clean record still adds nothing.
+#[test]
+fn a_late_load_cell_step_on_a_spring_is_judged_on_the_folds_that_differ() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in 0..4 {
+        let rows = sine_then_a_late_zero_step(seed, 0.3, 0.0);
+        let d = diagnose_rows(dir.path(), &format!("step-{seed}.csv"), &rows);
+        assert_eq!(d.effects_added(), ["force_offset"], "seed {seed}");
+        assert_fitted_within_10_percent(&d, seed, &[(Param::ForceOffsetN, 0.3)]);
+        let rows = sine_then_a_late_zero_step(seed, 0.0, 0.0);
         let d = diagnose_rows(dir.path(), &format!("clean-{seed}.csv"), &rows);
         assert!(
             d.effects_added().is_empty(),

@@ -762,6 +762,19 @@ pub(super) fn score(
     let cv_improvement = 1.0 - sum_fit / sum_current;
     let folds_better = common().filter(|(a, b)| a < b).count();
     let folds_judged = common().count();
+    // A load-cell step changes the prediction only where its column or the tare it frees
+    // reaches: the free space about it, and the contacts whose law the current model bent
+    // to split the two zeros. On a fold where both models' held-out errors agree within
+    // `min_cv_improvement` the step is neither seen nor contradicted, and the rule asks
+    // for better errors on that many of the folds that differ (all of them where fewer
+    // differ).
+    let folds_needed = if effect == Effect::ForceOffset {
+        let tie = |a: f64, b: f64| (a - b).abs() <= options.min_cv_improvement * b;
+        let differing = common().filter(|(a, b)| !tie(**a, **b)).count();
+        options.min_folds_better.min(differing.max(1))
+    } else {
+        options.min_folds_better
+    };
     let is_physical = physical(&fit, duration_s);
     // An added effect whose own parameter ended exactly at its nested value (a start the
     // search never left, e.g. q = 0, below the damping exponent's range) is the current
@@ -789,7 +802,7 @@ pub(super) fn score(
     let significant = is_physical
         && !nested
         && delta_bic < -options.min_bic_drop
-        && folds_better >= options.min_folds_better
+        && folds_better >= folds_needed
         && cv_improvement >= options.min_cv_improvement;
     Candidate {
         effect,
