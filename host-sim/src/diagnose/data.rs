@@ -257,8 +257,8 @@ pub struct Prepared {
     /// the first contact point (the length if the log never leaves its first contact).
     pub first_contact_end: usize,
     /// First fitting sample of a `force_offset`'s later load-cell zero: the change point
-    /// of the free-space force within the free stretch that follows the first contact
-    /// ([`load_cell_step`]); `first_contact_end` where that stretch shows none.
+    /// of the free-space force after the first contact ([`load_cell_step`]);
+    /// `first_contact_end` where the free space shows none.
     pub offset_step: usize,
     /// The linear damping coefficient is held at 0 in every model (set by the workflow
     /// when the record passes each depth at one speed, where λ·δ̇ is indistinguishable
@@ -595,21 +595,25 @@ fn assemble(
 
 /// Where a load-cell zero shift after the first contact takes effect: the first fitting
 /// sample of the later level. A zero that shifts with the load (a cable, a re-tare, the
-/// cell's hysteresis) need not shift the moment the probe leaves the first contact: it
-/// may shift anywhere in the free stretch that follows, and the samples of that stretch
-/// before the shift still read the old zero. The free-space force (`force` where
-/// `contact` is false, in time order: before the first contact, that stretch, and
-/// later) is split in two at each point of the stretch from `first_contact_end` to the
-/// next contact's onset, and the split of the largest between-means contrast
-/// (S_j − j·S/n)²·n / (j·(n − j)) — the least-squares single change point (Hinkley,
-/// Biometrika 57, 1970) — is taken where it lowers the BIC of that two-level fit against
-/// the split at `first_contact_end` by more than [`STEP_BIC_DROP`], the location counted
-/// as a parameter, on the free force's effective samples
-/// ([`super::scoring::effective_fraction`] of its detrended stretches): the search
-/// otherwise fits a coloured noise's wander. `first_contact_end` where it does not, or
-/// where the record has no such stretch or no free sample on one side of it (the step
-/// then falls at the lift-off), and where its stretches hold too few samples to measure
-/// the noise's colour on ([`super::scoring::NOISE_SAMPLES`]).
+/// cell's hysteresis, a bump) need not shift the moment the probe leaves the first
+/// contact: it may shift anywhere in the free space after it, in the stretch that follows
+/// or after a later contact, and the samples before the shift still read the old zero.
+/// The free-space force (`force` where `contact` is false, in time order) is split in two
+/// at each free sample from `first_contact_end` on, and the split of the largest
+/// between-means contrast (S_j − j·S/n)²·n / (j·(n − j)) — the least-squares single change
+/// point (Hinkley, Biometrika 57, 1970) — is taken where it lowers the BIC of that
+/// two-level fit against the split at `first_contact_end` by more than
+/// [`STEP_BIC_DROP`], the location counted as a parameter, on the free force's effective
+/// samples ([`super::scoring::effective_fraction`] of its detrended stretches): the
+/// search otherwise fits a coloured noise's wander. A split between the last free sample
+/// of one stretch and the first of the next puts the step at the onset of the contact
+/// between them (its whole stretch read the old zero). `first_contact_end` where the best
+/// split does not pass, or where the record has no free sample after the first contact or
+/// none before it (the step then falls at the lift-off), and where its stretches hold too
+/// few samples to measure the noise's colour on ([`super::scoring::NOISE_SAMPLES`]).
+/// (Until 2026-11-29 only the stretch after the first contact was searched: an
+/// independent generator's steps after the second to the thirtieth contact were read as
+/// a drift or refused.)
 ///
 /// `force` and `contact` are per fitting sample (equal lengths); returns an index in
 /// `first_contact_end..=len`.
@@ -618,11 +622,6 @@ pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize)
     if first_contact_end >= n {
         return first_contact_end;
     }
-    // The stretch from the first sample the detector frees at or after the lift-off (its
-    // release may lag the position's: a shifted zero can hold the force above the
-    // release threshold) to the next onset.
-    let gap_start = (first_contact_end..n).find(|&b| !contact[b]).unwrap_or(n);
-    let gap_end = (gap_start..n).find(|&b| contact[b]).unwrap_or(n);
     let free: Vec<usize> = (0..n).filter(|&b| !contact[b]).collect();
     let m = free.len() as f64;
     let total: f64 = free.iter().map(|&b| force[b]).sum();
@@ -634,14 +633,17 @@ pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize)
     let (mut best, mut best_contrast, mut at_lift_off, mut prefix) =
         (first_contact_end, 0.0, None, 0.0);
     for (j, &b) in free.iter().enumerate() {
-        // Split before free sample j (block b): j samples at the old zero.
-        if j > 0 && b >= first_contact_end && free[j - 1] < gap_end {
+        // Split before free sample j (block b): j samples at the old zero. (The first
+        // free sample the detector frees at or after the lift-off: its release may lag
+        // the position's, a shifted zero can hold the force above the release threshold.)
+        if j > 0 && b >= first_contact_end {
             let k = j as f64;
             let contrast = (prefix - k * total / m).powi(2) * m / (k * (m - k));
             at_lift_off.get_or_insert(contrast);
             if contrast > best_contrast {
                 best_contrast = contrast;
-                best = b.clamp(first_contact_end, gap_end);
+                // At the onset of a contact between the two free samples.
+                best = (free[j - 1] + 1).max(first_contact_end);
             }
         }
         prefix += force[b];
@@ -998,8 +1000,9 @@ pub(super) mod tests {
         assert!(!approached.left_out[0]);
     }
 
-    /// A load-cell zero that shifts in the free stretch after the first contact is placed
-    /// where it shifts, not at the lift-off; with no stretch, at the lift-off.
+    /// A load-cell zero that shifts in the free space after the first contact is placed
+    /// where it shifts, not at the lift-off, in the stretch after the first contact or
+    /// after a later one; with no stretch, at the lift-off.
     #[test]
     fn a_load_cell_step_is_placed_where_the_free_force_changes_level() {
         // Free 0..100, contact 100..200, free 200..400 (the step at 330), contact
@@ -1030,6 +1033,17 @@ pub(super) mod tests {
             .map(|i| contact[i] || (200..210).contains(&i))
             .collect();
         assert_eq!(load_cell_step(&force, &lagging, 200), 330);
+        // A step after the second contact, in the last stretch, is placed there too.
+        let after_second: Vec<f64> = (0..600)
+            .map(|i| {
+                let noise = if i % 2 == 0 { 0.01 } else { -0.01 };
+                match (contact[i], i >= 530) {
+                    (true, _) => 5.0,
+                    (false, later) => noise + if later { 0.05 } else { 0.0 },
+                }
+            })
+            .collect();
+        assert_eq!(load_cell_step(&after_second, &contact, 200), 530);
         // A constant free force has no step to place.
         assert_eq!(load_cell_step(&vec![0.0; 600], &contact, 200), 200);
         // A record that never leaves its first contact has no stretch.
