@@ -722,13 +722,19 @@ fn sine_then_a_late_zero_step(seed: u64, step_n: f64, lambda: f64) -> Vec<(f64, 
 /// fold 30 % worse, the others better). The same record without the step adds nothing.
 #[test]
 fn a_load_cell_step_after_the_last_lift_off_is_named() {
+    late_step_named_and_clean_record_adds_nothing(0..2, 520.7);
+}
+
+/// [`sine_then_a_late_zero_step`] with damping `lambda` over `seeds`: a 0.3 N step named
+/// alone and measured within 10 %; the same record without the step adds nothing.
+fn late_step_named_and_clean_record_adds_nothing(seeds: std::ops::Range<u64>, lambda: f64) {
     let dir = tempfile::tempdir().unwrap();
-    for seed in 0..2 {
-        let rows = sine_then_a_late_zero_step(seed, 0.3, 520.7);
+    for seed in seeds {
+        let rows = sine_then_a_late_zero_step(seed, 0.3, lambda);
         let d = diagnose_rows(dir.path(), &format!("step-{seed}.csv"), &rows);
         assert_eq!(d.effects_added(), ["force_offset"], "seed {seed}");
         assert_fitted_within_10_percent(&d, seed, &[(Param::ForceOffsetN, 0.3)]);
-        let rows = sine_then_a_late_zero_step(seed, 0.0, 520.7);
+        let rows = sine_then_a_late_zero_step(seed, 0.0, lambda);
         let d = diagnose_rows(dir.path(), &format!("clean-{seed}.csv"), &rows);
         assert!(
             d.effects_added().is_empty(),
@@ -747,20 +753,7 @@ fn a_load_cell_step_after_the_last_lift_off_is_named() {
 /// on the folds that differ); the clean record still adds nothing.
 #[test]
 fn a_late_load_cell_step_on_a_spring_is_judged_on_the_folds_that_differ() {
-    let dir = tempfile::tempdir().unwrap();
-    for seed in 0..4 {
-        let rows = sine_then_a_late_zero_step(seed, 0.3, 0.0);
-        let d = diagnose_rows(dir.path(), &format!("step-{seed}.csv"), &rows);
-        assert_eq!(d.effects_added(), ["force_offset"], "seed {seed}");
-        assert_fitted_within_10_percent(&d, seed, &[(Param::ForceOffsetN, 0.3)]);
-        let rows = sine_then_a_late_zero_step(seed, 0.0, 0.0);
-        let d = diagnose_rows(dir.path(), &format!("clean-{seed}.csv"), &rows);
-        assert!(
-            d.effects_added().is_empty(),
-            "seed {seed}: {:?}",
-            d.effects_added()
-        );
-    }
+    late_step_named_and_clean_record_adds_nothing(0..4, 0.0);
 }
 
 /// A load cell whose zero drifts (a strain-gauge bridge warming up) on taps from free
