@@ -17,7 +17,8 @@
 //!   "significant";
 //! - the held-out error improves on at least 3 of the 5 contiguous time blocks (on a
 //!   record whose probe moves in fewer than 3 of them, on 3 of 5 interleaved folds:
-//!   [`scoring::interleaved_block`]);
+//!   [`scoring::interleaved_block`]; a load-cell step on 3 of the folds whose two errors
+//!   differ by more than 1 %, all of them where fewer differ: `scoring::score`);
 //! - the mean held-out error improves by at least 1 % on those folds.
 //!
 //! **Identifiability before significance.** Two significant candidates whose fits the
@@ -122,7 +123,8 @@ pub struct Options {
     pub min_bic_drop: f64,
     /// Mean held-out error must improve by at least this fraction.
     pub min_cv_improvement: f64,
-    /// Held-out error must improve on at least this many of the folds.
+    /// Held-out error must improve on at least this many of the folds (a `force_offset`:
+    /// of the folds whose two errors differ by more than `min_cv_improvement`).
     pub min_folds_better: usize,
     /// Interleave the folds where the probe moves in fewer than
     /// [`scoring::MIN_MOVING_FOLDS`] contiguous fifths ([`scoring::interleaved_block`]);
