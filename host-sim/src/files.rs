@@ -1078,6 +1078,11 @@ pub fn simulate_spec(
         (Some(_), None) => prepare.prepared.offset_step = prepare.prepared.first_contact_end,
         _ => {}
     }
+    // The surface moves where the spec says, after the first contact if it does not.
+    match spec.contact_shift_at_s {
+        Some(t_s) => prepare.prepared.set_surface_switch_s(t_s),
+        None => prepare.prepared.surface_switch = prepare.prepared.first_contact_end,
+    }
     let data = &prepare.prepared;
     let force_n = spec.force_n(data);
     let measured = &data.force_n[data.fit_start()..];

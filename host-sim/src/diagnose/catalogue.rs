@@ -463,10 +463,11 @@ pub struct Estimate {
 }
 
 /// The longest force-channel delay the catalogue searches \[s\] on fitting samples
-/// `dt_s` apart: 50 ms, or 5 samples where they are longer than 10 ms (the upper bound of
-/// [`Knob::Delay`]'s range).
+/// `dt_s` apart: 100 ms, or 5 samples where they are longer than 20 ms (the upper bound
+/// of [`Knob::Delay`]'s range). (50 ms until 2026-11-29: two independent generators'
+/// delays of 53-66 ms were reported at that bound, 11 of them.)
 pub fn longest_delay_s(dt_s: f64) -> f64 {
-    (5.0 * dt_s).max(0.05)
+    (5.0 * dt_s).max(0.1)
 }
 
 /// Typical magnitudes of a log, for scaling and search bounds.

@@ -6,7 +6,6 @@ use estimator_core::conditioning::{
     ForceTare, ImpactConfig, ImpactDetector, RecontactPolicy, TareConfig,
 };
 
-use super::catalogue::longest_delay_s;
 use crate::phases::{Phase, PhaseClassifier};
 
 /// Fitting samples are block averages over about this long \[s\] (200 Hz from a 1 kHz
@@ -187,10 +186,14 @@ pub struct Prepared {
     ///   block, a mean of both sides, is the one-sided difference away from it),
     ///   [`Prepared::kinks`] of them;
     /// - the first [`Prepared::leading_left_out`] samples of a record that begins in
-    ///   contact, as long as the longest delay the catalogue searches
-    ///   ([`longest_delay_s`], 50 ms at 1 kHz): a model with a force-channel delay τ
-    ///   predicts the force at t from the motion at t − τ, which for the record's first τ
-    ///   is before the record, unknown, and every model is scored on the same samples.
+    ///   contact ([`leading_left_out_s`], 50 ms at 1 kHz): a model with a force-channel
+    ///   delay τ predicts the force at t from the motion at t − τ, which for the record's
+    ///   first τ is before the record, unknown, and every model is scored on the same
+    ///   samples. (The catalogue searches delays to
+    ///   [`longest_delay_s`](super::catalogue::longest_delay_s), 100 ms; a delay
+    ///   beyond 50 ms reads the record's first motion for the motion before it. Leaving
+    ///   100 ms out cost the project's structure sweep two of twenty relaxations in
+    ///   records that never leave contact: the fastest of a relaxation is at the start.)
     ///   (What a delayed channel shows there depends on the instrument: the force before
     ///   the record, or a delay line that starts empty. An independent generator's delays,
     ///   `np.concatenate([zeros(k), f[:-k]])`, start at zero force under a probe 1.5 mm
@@ -256,6 +259,10 @@ pub struct Prepared {
     /// First fitting sample after the end of the first contact: the probe is back above
     /// the first contact point (the length if the log never leaves its first contact).
     pub first_contact_end: usize,
+    /// First fitting sample read from the later contacts' surface by a
+    /// `contact_point_offset` ([`surface_switch`]): `first_contact_end` unless the
+    /// contacts' onset depths show the surface moving after a later contact.
+    pub surface_switch: usize,
     /// First fitting sample of a `force_offset`'s later load-cell zero: the change point
     /// of the free-space force after the first contact ([`load_cell_step`]);
     /// `first_contact_end` where the free space shows none.
@@ -499,7 +506,7 @@ fn assemble(
         .collect();
     let leading_left_out = if in_contact.first() == Some(&true) {
         // (Less a hair: a dt from time stamps a rounding above the exact one.)
-        ((longest_delay_s(dt) / dt - 1e-9).ceil() as usize).min(blocks.saturating_sub(1))
+        ((leading_left_out_s(dt) / dt - 1e-9).ceil() as usize).min(blocks.saturating_sub(1))
     } else {
         0
     };
@@ -531,6 +538,8 @@ fn assemble(
         .find(|b| depth[*b] <= 0.0)
         .unwrap_or(blocks);
     let offset_step = load_cell_step(&force, &in_contact, first_contact_end);
+    let noise_n = noise_raw / (block.div_ceil(measurement_samples) as f64).sqrt();
+    let surface_switch = surface_switch(&depth, &force, noise_n, first_contact_end);
     let raw_depth: Vec<f64> = position_m[..blocks * block]
         .iter()
         .map(|x| x - x_c)
@@ -555,7 +564,7 @@ fn assemble(
         phase,
         force_offset_n: offset,
         contact_position_m: x_c,
-        noise_n: noise_raw / (block.div_ceil(measurement_samples) as f64).sqrt(),
+        noise_n,
         raw_depth_m: raw_depth,
         raw_depth_prefix: std::iter::once(0.0)
             .chain(position_m[..blocks * block].iter().scan(0.0, |acc, x| {
@@ -585,6 +594,7 @@ fn assemble(
         measurement_samples,
         short_contact_s,
         first_contact_end,
+        surface_switch,
         offset_step,
         hold_damping: false,
         offset_unidentified: false,
@@ -674,6 +684,128 @@ pub fn load_cell_step(force: &[f64], contact: &[bool], first_contact_end: usize)
     }
 }
 
+/// The time left out at the start of a record that begins in contact \[s\] on fitting
+/// samples `dt_s` apart ([`Prepared::left_out`]): 50 ms, or 5 samples where they are
+/// longer than 10 ms (the longest delay the catalogue searched until 2026-11-29).
+pub fn leading_left_out_s(dt_s: f64) -> f64 {
+    (5.0 * dt_s).max(0.05)
+}
+
+/// Where a `contact_point_offset`'s later surface takes over: the first fitting sample
+/// read from it. The catalogue's offset moves the surface once; an instrument's may move
+/// after any contact (a re-zeroed stage, a sample that slipped), not only the first. The
+/// contacts are the runs of force above 5 noise deviations of a fitting sample that reach
+/// a fifth of the record's largest force; each that begins after free space has an onset
+/// depth, the depth at its first sample. The onset depths are split in two groups at the
+/// single change point of their means (least squares, as [`load_cell_step`]); the split
+/// moves the surface after a later contact than the first only when it explains the
+/// onset depths [`SURFACE_SWITCH_RSS_FACTOR`] times better than a switch after the first
+/// contact does and its shift stands [`SURFACE_SWITCH_Z`] standard errors clear of zero.
+/// The switch then falls at the shallowest depth of the free stretch after the last
+/// contact of the first group (the probe at its furthest from both surfaces).
+/// `first_contact_end` otherwise, and with fewer than three onsets (the first contact's
+/// switch is then the only one there is, or the onsets cannot show a later one).
+///
+/// `depth`, `force` per fitting sample \[m, N\], `noise_n` a fitting sample's noise
+/// deviation \[N\]; returns an index in `first_contact_end..=len`.
+pub fn surface_switch(
+    depth: &[f64],
+    force: &[f64],
+    noise_n: f64,
+    first_contact_end: usize,
+) -> usize {
+    let n = depth.len().min(force.len());
+    let peak = force[..n].iter().copied().fold(0.0, f64::max);
+    let threshold = 5.0 * noise_n;
+    // (A NaN noise compares with nothing: no contact to find either.)
+    if first_contact_end >= n || peak.partial_cmp(&threshold) != Some(std::cmp::Ordering::Greater) {
+        return first_contact_end;
+    }
+    // Contacts: (first, end) of each run above the threshold that reaches peak/5.
+    let mut contacts: Vec<(usize, usize)> = Vec::new();
+    let mut b = 0;
+    while b < n {
+        if force[b] > threshold {
+            let first = b;
+            let mut top = 0.0f64;
+            while b < n && force[b] > threshold {
+                top = top.max(force[b]);
+                b += 1;
+            }
+            if top >= 0.2 * peak {
+                contacts.push((first, b));
+            }
+        } else {
+            b += 1;
+        }
+    }
+    // Onset depths of the contacts that begin after free space, with their contact index.
+    let onsets: Vec<(usize, f64)> = contacts
+        .iter()
+        .enumerate()
+        .filter(|(_, (first, _))| *first > 0)
+        .map(|(k, (first, _))| (k, depth[*first]))
+        .collect();
+    let m = onsets.len();
+    if m < 3 {
+        return first_contact_end;
+    }
+    // RSS of two means split before onset j (j = 0: one mean).
+    let total: f64 = onsets.iter().map(|o| o.1).sum();
+    let squares: f64 = onsets.iter().map(|o| o.1 * o.1).sum();
+    let mut prefix = 0.0;
+    let rss_at: Vec<f64> = (0..m)
+        .map(|j| {
+            let rss = if j == 0 {
+                squares - total * total / m as f64
+            } else {
+                let (k, rest) = (j as f64, (m - j) as f64);
+                squares - prefix * prefix / k - (total - prefix) * (total - prefix) / rest
+            };
+            prefix += onsets[j].1;
+            rss.max(0.0)
+        })
+        .collect();
+    let Some((best, rss_best)) = (1..m)
+        .map(|j| (j, rss_at[j]))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return first_contact_end;
+    };
+    // The switch after the first contact: before the second onset where the first
+    // contact has one, with all onsets after it where the record begins in contact.
+    let current = if onsets[0].0 == 0 { 1 } else { 0 };
+    // The last contact of the first group: a later one than the first?
+    let last_before = onsets[best - 1].0;
+    if best == current || last_before == 0 {
+        return first_contact_end;
+    }
+    let (k, rest) = (best as f64, (m - best) as f64);
+    let before = onsets[..best].iter().map(|o| o.1).sum::<f64>() / k;
+    let after = onsets[best..].iter().map(|o| o.1).sum::<f64>() / rest;
+    let variance = rss_best / (m as f64 - 2.0).max(1.0);
+    let z2 = (after - before).powi(2) / (variance * (1.0 / k + 1.0 / rest)).max(f64::MIN_POSITIVE);
+    let clear = rss_best * SURFACE_SWITCH_RSS_FACTOR <= rss_at[current]
+        && z2 >= SURFACE_SWITCH_Z * SURFACE_SWITCH_Z;
+    if !clear {
+        return first_contact_end;
+    }
+    // The shallowest point of the free stretch between the two contacts.
+    let (gap_start, gap_end) = (contacts[last_before].1, contacts[last_before + 1].0);
+    (gap_start..gap_end)
+        .min_by(|&a, &b| depth[a].total_cmp(&depth[b]))
+        .unwrap_or(gap_start)
+        .max(first_contact_end)
+}
+
+/// How many times smaller the onset depths' residual must be with the surface moving
+/// after a later contact than after the first ([`surface_switch`]).
+pub const SURFACE_SWITCH_RSS_FACTOR: f64 = 4.0;
+
+/// Standard errors by which the two groups' mean onset depths must differ
+/// ([`surface_switch`]).
+pub const SURFACE_SWITCH_Z: f64 = 5.0;
+
 /// BIC drop \[-\] beyond its location's own parameter by which a load-cell step placed
 /// within the free stretch must beat one at the lift-off ([`load_cell_step`]): the
 /// workflow's default threshold for naming an effect (`Options::min_bic_drop`).
@@ -694,6 +826,18 @@ impl Prepared {
     /// [`Prepared::offset_step`] as time since the log's first sample \[s\].
     pub fn offset_step_s(&self) -> f64 {
         self.offset_step as f64 * self.dt
+    }
+
+    /// [`Prepared::surface_switch`] as time since the log's first sample \[s\].
+    pub fn surface_switch_s(&self) -> f64 {
+        self.surface_switch as f64 * self.dt
+    }
+
+    /// Places [`Prepared::surface_switch`] at `t_s` seconds from the log's first sample
+    /// (a spec's `contact_shift_at_s` run over another record's motion): the nearest
+    /// fitting sample, at most the length.
+    pub fn set_surface_switch_s(&mut self, t_s: f64) {
+        self.surface_switch = ((t_s / self.dt).round().max(0.0) as usize).min(self.len());
     }
 
     /// Places [`Prepared::offset_step`] at `t_s` seconds from the log's first sample (a
@@ -824,6 +968,12 @@ impl Prepared {
         self.raw_depth_prefix.truncate(end * self.block + 1);
         self.first_contact_end = self.first_contact_end.min(end);
         self.offset_step = load_cell_step(&self.force_n, &self.contact, self.first_contact_end);
+        self.surface_switch = surface_switch(
+            &self.depth_m,
+            &self.force_n,
+            self.noise_n,
+            self.first_contact_end,
+        );
         true
     }
 
@@ -958,11 +1108,11 @@ pub(super) mod tests {
     }
 
     /// A record that begins in contact leaves out as many leading fitting samples as the
-    /// longest delay tried spans (50 ms), whatever the block; one that begins out of
+    /// first 50 ms span ([`leading_left_out_s`]), whatever the block; one that begins out of
     /// contact leaves none; one that ends in contact leaves its last sample out, unless it
     /// is cut at the end of a phase; the kinks are counted apart from them.
     #[test]
-    fn a_record_that_begins_in_contact_leaves_out_the_longest_delay() {
+    fn a_record_that_begins_in_contact_leaves_out_its_first_50_ms() {
         let pressed = log(4.0, |t| 1e-3 + 0.5e-3 * (6.0 * t).sin());
         let leading = pressed.leading_left_out;
         assert_eq!(leading, (0.05 / pressed.dt).round() as usize);
@@ -1048,5 +1198,38 @@ pub(super) mod tests {
         assert_eq!(load_cell_step(&vec![0.0; 600], &contact, 200), 200);
         // A record that never leaves its first contact has no stretch.
         assert_eq!(load_cell_step(&force, &contact, 600), 600);
+    }
+
+    #[test]
+    fn a_surface_that_moves_after_a_later_contact_switches_there() {
+        // Six triangular taps of 100 samples from 1 mm above to 1 mm below the prepared
+        // contact point, a 1000 N/m spring whose surface is `surface(tap)`, ±0.002 N of
+        // alternating noise (a fitting sample's deviation 0.01 N).
+        let taps = |surface: &dyn Fn(usize) -> f64| -> (Vec<f64>, Vec<f64>) {
+            (0..600)
+                .map(|i| {
+                    let t = (i % 100) as f64;
+                    let depth = -1e-3 + 2e-3 * (1.0 - (t - 50.0).abs() / 50.0);
+                    let noise = if i % 2 == 0 { 0.002 } else { -0.002 };
+                    (depth, 1000.0 * (depth - surface(i / 100)).max(0.0) + noise)
+                })
+                .unzip()
+        };
+        // The surface 0.3 mm deeper from the fourth tap on: the switch at the probe's
+        // highest point before it (the fourth tap's first sample).
+        let (depth, force) = taps(&|tap| if tap >= 3 { 3e-4 } else { 0.0 });
+        assert_eq!(surface_switch(&depth, &force, 0.01, 80), 300);
+        // Moved after the first tap: the first contact's switch, as before.
+        let (depth, force) = taps(&|tap| if tap >= 1 { 3e-4 } else { 0.0 });
+        assert_eq!(surface_switch(&depth, &force, 0.01, 80), 80);
+        // Not moved: the same.
+        let (depth, force) = taps(&|_| 0.0);
+        assert_eq!(surface_switch(&depth, &force, 0.01, 80), 80);
+        // Beginning in contact (the first tap's onset not seen): still after the fourth.
+        let (depth, force) = taps(&|tap| if tap >= 3 { 3e-4 } else { 0.0 });
+        let (depth, force) = (&depth[40..], &force[40..]);
+        assert_eq!(surface_switch(depth, force, 0.01, 40), 260);
+        // Two onsets cannot show a later move than the first contact's.
+        assert_eq!(surface_switch(&depth[..200], &force[..200], 0.01, 40), 40);
     }
 }

@@ -503,7 +503,7 @@ pub const MIN_DELAY_SAMPLES: f64 = 0.5;
 /// discretization, not a delay. Where a reversal or an onset falls between two samples,
 /// the symmetric difference misplaces the damping's step by up to half a sample (an
 /// independent generator's clean Kelvin-Voigt triangles at 100 Hz were given a 2.9 ms
-/// delay, alone or jointly with a mass; the catalogue's delays are 5-50 ms). Such a fit
+/// delay, alone or jointly with a mass; the catalogue's delays are 5-100 ms). Such a fit
 /// is neither named nor paired.
 fn under_half_a_sample(data: &Prepared, fit: &Fit) -> bool {
     fit.effects.contains(&Effect::TimeDelay)

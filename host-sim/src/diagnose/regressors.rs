@@ -490,11 +490,15 @@ pub(super) fn design(
     // own end is the generator's switch too, but ending there lost a shift of −0.37 mm
     // (the knob's grid settled at 0: 5.9× the floor); the later end costs a few blocks of
     // the retract and finds it (1.10×).
-    let first_contact_end = if has(Effect::ContactPointOffset) {
+    // (A surface that moves after a later contact, `Prepared::surface_switch`, switches
+    // in the free stretch before the next contact, clear of both surfaces.)
+    let first_contact_end = if !has(Effect::ContactPointOffset) {
         data.first_contact_end
-            .max(data.first_contact_end_at(nl.contact_m - nl.contact_shift_m))
+    } else if data.surface_switch > data.first_contact_end {
+        data.surface_switch
     } else {
         data.first_contact_end
+            .max(data.first_contact_end_at(nl.contact_m - nl.contact_shift_m))
     };
     for i in 0..n {
         // δ from the refined first-impact point; later contacts from the shifted one.

@@ -114,6 +114,12 @@ pub struct ModelSpec {
     pub contact_position_m: f64,
     /// Contact position of the later contacts minus the first's \[m\], if modelled.
     pub contact_shift_m: Option<f64>,
+    /// When the later contacts' position took over \[s\] from the record's first sample,
+    /// where the surface moved after a later contact than the first
+    /// ([`Prepared::surface_switch`]); absent: after the first contact (as in specs
+    /// written before it existed). A time, as `later_force_offset_at_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_shift_at_s: Option<f64>,
     /// Force offset \[N\] subtracted from the file's force (the load cell's zero).
     pub force_offset_n: f64,
     /// A further offset after the first contact \[N\] (a zero shift), if modelled.
@@ -201,6 +207,10 @@ impl ModelSpec {
             position_sign: data.position_sign,
             contact_position_m: param(fit, Param::ContactPositionM)?,
             contact_shift_m: fit.parameter(Param::ContactShiftM),
+            contact_shift_at_s: fit
+                .parameter(Param::ContactShiftM)
+                .filter(|_| data.surface_switch > data.first_contact_end)
+                .map(|_| data.surface_switch_s()),
             force_offset_n: data.force_offset_n + fit.parameter(Param::TareN).unwrap_or(0.0),
             later_force_offset_n: fit.parameter(Param::ForceOffsetN),
             later_force_offset_at_s: fit
@@ -350,15 +360,30 @@ impl ModelSpec {
             Effect::ForceDrift,
             self.force_drift_n_per_s,
         )?;
-        if let Some(t) = self.later_force_offset_at_s {
-            if self.later_force_offset_n.is_none() {
-                bail!("field later_force_offset_at_s: given without later_force_offset_n");
+        // When a modelled shift took effect: a time in the record, with its shift.
+        let moment = |name: &str, t: Option<f64>, of: &str, shift: Option<f64>| -> Result<()> {
+            let Some(t) = t else { return Ok(()) };
+            if shift.is_none() {
+                bail!("field {name}: given without {of}");
             }
-            finite("later_force_offset_at_s", t)?;
+            finite(name, t)?;
             if t < 0.0 {
-                bail!("field later_force_offset_at_s: {t} is negative (seconds from the record's first sample)");
+                bail!("field {name}: {t} is negative (seconds from the record's first sample)");
             }
-        }
+            Ok(())
+        };
+        moment(
+            "contact_shift_at_s",
+            self.contact_shift_at_s,
+            "contact_shift_m",
+            self.contact_shift_m,
+        )?;
+        moment(
+            "later_force_offset_at_s",
+            self.later_force_offset_at_s,
+            "later_force_offset_n",
+            self.later_force_offset_n,
+        )?;
         if self.position_sign != 1.0 && self.position_sign != -1.0 {
             bail!(
                 "field position_sign: {}, expected 1 or -1",
@@ -557,6 +582,7 @@ mod tests {
             position_sign: 1.0,
             contact_position_m: 0.0,
             contact_shift_m: None,
+            contact_shift_at_s: None,
             force_offset_n: 0.0,
             later_force_offset_n: None,
             later_force_offset_at_s: None,
@@ -570,7 +596,7 @@ mod tests {
     fn bad_specs_name_the_field() {
         assert!(valid().validate().is_ok());
         type Spoil = fn(&mut ModelSpec);
-        let cases: [(Spoil, &str); 8] = [
+        let cases: [(Spoil, &str); 10] = [
             (|s| s.schema = "other/1".into(), "field schema"),
             (
                 |s| s.elastic = ElasticLaw::PowerLaw { k: -1.0, n: 1.5 },
@@ -603,6 +629,18 @@ mod tests {
                     s.later_force_offset_at_s = Some(-1.0);
                 },
                 "field later_force_offset_at_s",
+            ),
+            (
+                |s| s.contact_shift_at_s = Some(1.0),
+                "field contact_shift_at_s",
+            ),
+            (
+                |s| {
+                    s.effects.push(Effect::ContactPointOffset);
+                    s.contact_shift_m = Some(1e-4);
+                    s.contact_shift_at_s = Some(f64::NAN);
+                },
+                "field contact_shift_at_s",
             ),
         ];
         for (spoil, field) in cases {
