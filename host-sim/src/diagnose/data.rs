@@ -828,23 +828,35 @@ impl Prepared {
         self.offset_step as f64 * self.dt
     }
 
-    /// [`Prepared::surface_switch`] as time since the log's first sample \[s\].
-    pub fn surface_switch_s(&self) -> f64 {
-        self.surface_switch as f64 * self.dt
+    /// [`Prepared::surface_switch`] where it falls after a later contact than the first
+    /// (after the first, a contact-point shift keeps its own refinement at the first
+    /// contact's end, `first_contact_end_at`): `None` otherwise.
+    pub fn later_surface_switch(&self) -> Option<usize> {
+        (self.surface_switch > self.first_contact_end).then_some(self.surface_switch)
+    }
+
+    /// [`Prepared::later_surface_switch`] as time since the log's first sample \[s\].
+    pub fn later_surface_switch_s(&self) -> Option<f64> {
+        self.later_surface_switch().map(|i| i as f64 * self.dt)
+    }
+
+    /// The fitting sample nearest `t_s` seconds from the log's first sample, at most the
+    /// length: where a spec's `contact_shift_at_s` or `later_force_offset_at_s` falls
+    /// when it is run over another record's motion.
+    fn sample_at_s(&self, t_s: f64) -> usize {
+        ((t_s / self.dt).round().max(0.0) as usize).min(self.len())
     }
 
     /// Places [`Prepared::surface_switch`] at `t_s` seconds from the log's first sample
-    /// (a spec's `contact_shift_at_s` run over another record's motion): the nearest
-    /// fitting sample, at most the length.
+    /// (`sample_at_s`).
     pub fn set_surface_switch_s(&mut self, t_s: f64) {
-        self.surface_switch = ((t_s / self.dt).round().max(0.0) as usize).min(self.len());
+        self.surface_switch = self.sample_at_s(t_s);
     }
 
-    /// Places [`Prepared::offset_step`] at `t_s` seconds from the log's first sample (a
-    /// spec's `later_force_offset_at_s` run over another record's motion): the nearest
-    /// fitting sample, at most the length (no shift within the log).
+    /// Places [`Prepared::offset_step`] at `t_s` seconds from the log's first sample
+    /// (`sample_at_s`; the length: no shift within the log).
     pub fn set_offset_step_s(&mut self, t_s: f64) {
-        self.offset_step = ((t_s / self.dt).round().max(0.0) as usize).min(self.len());
+        self.offset_step = self.sample_at_s(t_s);
     }
 
     /// The first fitting sample, from the first one flagged in contact on, whose depth is

@@ -494,8 +494,8 @@ pub(super) fn design(
     // in the free stretch before the next contact, clear of both surfaces.)
     let first_contact_end = if !has(Effect::ContactPointOffset) {
         data.first_contact_end
-    } else if data.surface_switch > data.first_contact_end {
-        data.surface_switch
+    } else if let Some(later) = data.later_surface_switch() {
+        later
     } else {
         data.first_contact_end
             .max(data.first_contact_end_at(nl.contact_m - nl.contact_shift_m))

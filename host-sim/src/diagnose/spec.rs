@@ -209,8 +209,7 @@ impl ModelSpec {
             contact_shift_m: fit.parameter(Param::ContactShiftM),
             contact_shift_at_s: fit
                 .parameter(Param::ContactShiftM)
-                .filter(|_| data.surface_switch > data.first_contact_end)
-                .map(|_| data.surface_switch_s()),
+                .and_then(|_| data.later_surface_switch_s()),
             force_offset_n: data.force_offset_n + fit.parameter(Param::TareN).unwrap_or(0.0),
             later_force_offset_n: fit.parameter(Param::ForceOffsetN),
             later_force_offset_at_s: fit
