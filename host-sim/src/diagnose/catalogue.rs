@@ -256,7 +256,7 @@ impl Knob {
                 longest_delay_s(scale.dt_s),
                 false,
             ),
-            Knob::ContactShift => (-0.25 * l, 0.25 * l, false),
+            Knob::ContactShift => (-0.5 * l, 0.5 * l, false),
             Knob::PlasticFraction => (0.0, scale.plastic_max, false),
             Knob::SlipRate => (0.005 * scale.rate_m_per_s, 0.5 * scale.rate_m_per_s, true),
         }
