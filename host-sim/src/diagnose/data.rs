@@ -532,10 +532,15 @@ fn assemble(
         .map(|b| classifier.classify(in_contact[b], rate[b]))
         .collect();
     // The first contact ends when the probe is back above the first contact point (by
-    // position: a load-cell zero shift may keep the force above the release threshold).
+    // position: a load-cell zero shift may keep the force above the release threshold),
+    // after it has been below it: a contact flagged by the force a block before the
+    // probe passes the fitted point is not over at its first block (an independent
+    // generator's clean one-speed loading, flagged so, was read as a first contact ended
+    // at once and a second one whose point a `contact_point_offset` shifted).
     let first_block = in_contact.iter().position(|c| *c).unwrap_or(first / block);
     let first_contact_end = (first_block..blocks)
-        .find(|b| depth[*b] <= 0.0)
+        .find(|b| depth[*b] > 0.0)
+        .and_then(|inside| (inside..blocks).find(|b| depth[*b] <= 0.0))
         .unwrap_or(blocks);
     let offset_step = load_cell_step(&force, &in_contact, first_contact_end);
     let noise_n = noise_raw / (block.div_ceil(measurement_samples) as f64).sqrt();
@@ -1160,6 +1165,28 @@ pub(super) mod tests {
         assert!(!held.left_out[held.len() - 1]);
         assert_eq!(held.kinks(), held.left_out.iter().filter(|k| **k).count());
         assert!(!approached.left_out[0]);
+    }
+
+    /// A first contact flagged a block before the probe passes the contact point (the
+    /// position's noise: three of the block's five samples just past it, the block's mean
+    /// still short of it) has not ended at that block: a ramp in that never leaves has no
+    /// later contact.
+    #[test]
+    fn a_contact_flagged_before_the_probe_passes_the_point_has_not_ended_there() {
+        let mut flagged = log(3.0, |t| 1e-3 * (t - 1.0));
+        assert_eq!(flagged.block, 5);
+        assert_eq!(flagged.first_contact_end, flagged.len());
+        let t: Vec<f64> = (0..3000).map(|i| i as f64 * 1e-3).collect();
+        let mut x: Vec<f64> = t.iter().map(|&t| 1e-3 * (t - 1.0)).collect();
+        for xi in &mut x[995..998] {
+            *xi = 0.5e-6;
+        }
+        let f: Vec<f64> = x.iter().map(|&x| 1e3 * x.max(0.0)).collect();
+        flagged = prepare_known(&t, &x, &f, 0.0, 0.0, 1e-3, 1).expect("prepared");
+        let first = flagged.contact.iter().position(|c| *c).expect("a contact");
+        assert_eq!(first, 199);
+        assert!(flagged.depth_m[first] <= 0.0, "{}", flagged.depth_m[first]);
+        assert_eq!(flagged.first_contact_end, flagged.len());
     }
 
     /// A load-cell zero that shifts in the free space after the first contact is placed
