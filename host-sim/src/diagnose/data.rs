@@ -294,6 +294,11 @@ pub struct Prepared {
     /// effective sample); `None` as prepared or where the record shows no noise to
     /// measure (then each fit's own [`super::solver::Fit::residual_sample_fraction`]).
     pub noise_fraction: Option<f64>,
+    /// An `inertia`'s mass also acts out of contact: a probe's mass beyond the load cell,
+    /// whose force m·δ̈ the free space itself shows ([`super::scoring::free_space_inertia`]),
+    /// not only a mass that moves with the contact. Set by the workflow ([`super::diagnose`])
+    /// or a spec's `mass_in_free_space`; `false` as prepared.
+    pub mass_in_free_space: bool,
 }
 
 /// Why a log cannot be diagnosed.
@@ -553,6 +558,7 @@ fn assemble(
     Prepared {
         cv_block: None,
         noise_fraction: None,
+        mass_in_free_space: false,
         dt,
         time_s: (0..blocks).map(|b| avg(time_s, b)).collect(),
         depth_m: depth,

@@ -359,10 +359,17 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
     let duration_s = data.dt * (data.len() - data.fit_start()) as f64;
     let noise_fraction = noise_sample_fraction(data);
     // Cross-validation folds the record's motion can fill (see `interleaved_block`).
+    // A probe's mass beyond the load cell: its force m·δ̈ shows in the free space too,
+    // and the candidate's column then runs there as well (an independent generator's
+    // probe masses on sines and taps were fitted in contact only, at 0.02 kg for 50, or
+    // not tried on constant-speed taps, whose free turnarounds show them).
+    let mass_in_free_space = scoring::free_space_inertia(data, data.fit_start(), noise_fraction)
+        .is_some_and(|(mass, t)| mass > 0.0 && t >= scoring::MIN_FREE_SPACE_INERTIA_T);
     let interleaved = Prepared {
         cv_block: scoring::interleaved_block(data, data.fit_start(), noise_fraction)
             .filter(|_| options.interleave_folds),
         noise_fraction,
+        mass_in_free_space,
         ..data.clone()
     };
     let data = &interleaved;
@@ -431,9 +438,10 @@ pub fn diagnose(data: &Prepared, options: &Options) -> Option<Diagnosis> {
             // never leaves contact (on a sine, −mω²·(δ − δ₀) is a stiffness and a
             // constant).
             Effect::Inertia => {
-                one_speed
-                    || (one_speed_each_way
-                        && (in_contact_throughout || speed_change < SPEED_CHANGE_MIN))
+                !data.mass_in_free_space
+                    && (one_speed
+                        || (one_speed_each_way
+                            && (in_contact_throughout || speed_change < SPEED_CHANGE_MIN)))
             }
             Effect::TimeDelay => (one_speed || one_frequency_in_contact) && !step_in_contact,
             _ => one_speed && e.is_rate_effect(),

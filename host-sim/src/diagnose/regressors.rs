@@ -729,7 +729,13 @@ pub(super) fn design(
             // samples in contact, 0 for the others; not the block's own acceleration times
             // its fraction in contact: on a 6-9 Hz tap the acceleration changes by a fifth
             // across a 5 ms block, and the samples in contact sit at one end of it.)
-            inertia.push(a);
+            // A probe's mass pushes on the load cell in and out of contact alike: the
+            // block's own acceleration everywhere, outside the material's clipping.
+            inertia.push(if data.mass_in_free_space {
+                series(2, i)
+            } else {
+                a
+            });
         }
         if has(Effect::CoulombFriction) {
             coulomb.push(c);
@@ -792,7 +798,7 @@ pub(super) fn design(
     if has(Effect::Inertia) {
         names.push(Column::Inertia);
         columns.push(inertia);
-        material.push(true);
+        material.push(!data.mass_in_free_space);
     }
     if has(Effect::CoulombFriction) {
         names.push(Column::Coulomb);
@@ -839,6 +845,8 @@ pub(super) fn design(
                         Column::Damping if !data.hold_damping => t[2],
                         Column::LinearSpring => t[4],
                         // (A delayed block's own acceleration: see the row's.)
+                        // (A probe's mass is not the material's: its block value.)
+                        Column::Inertia if data.mass_in_free_space => 0.0,
                         Column::Inertia if shift != 0.0 => t[0] * accel,
                         Column::Inertia => t[5],
                         Column::Coulomb => t[3],

@@ -188,6 +188,10 @@ pub struct Fit {
     /// First sample of the fit window.
     #[serde(skip)]
     pub start: usize,
+    /// The fit's mass acts out of contact too ([`Prepared::mass_in_free_space`] on the
+    /// record it was fitted to, with an `inertia`).
+    #[serde(skip)]
+    pub mass_in_free_space: bool,
 }
 
 impl Fit {
@@ -1092,6 +1096,7 @@ fn fit_on(
         damping_combination_se,
         prediction,
         start,
+        mass_in_free_space: data.mass_in_free_space && effects.contains(&Effect::Inertia),
     })
 }
 

@@ -100,6 +100,11 @@ pub struct ModelSpec {
     pub relaxation: Option<Relaxation>,
     /// Moving mass \[kg\], if modelled.
     pub mass_kg: Option<f64>,
+    /// The mass acts out of contact too: a probe's mass beyond the load cell, m·δ̈ in the
+    /// free space as well ([`Prepared::mass_in_free_space`]); absent: in contact only
+    /// (a mass that moves with the material, as in specs written before it existed).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub mass_in_free_space: bool,
     /// Coulomb friction, if modelled.
     pub coulomb: Option<Coulomb>,
     /// Lag of the force channel behind the position \[s\], if modelled.
@@ -201,6 +206,7 @@ impl ModelSpec {
             damping_exponent: fit.parameter(Param::Q).unwrap_or(0.0),
             relaxation,
             mass_kg: fit.parameter(Param::MassKg),
+            mass_in_free_space: fit.mass_in_free_space,
             coulomb,
             delay_s: fit.parameter(Param::DelayS),
             plastic_fraction: fit.parameter(Param::PlasticFraction),
@@ -316,6 +322,9 @@ impl ModelSpec {
             finite("relaxation.initial_relaxing_n", r.initial_relaxing_n)?;
         }
         present("mass_kg", Effect::Inertia, self.mass_kg.is_some())?;
+        if self.mass_in_free_space && self.mass_kg.is_none() {
+            bail!("field mass_in_free_space: true, but no mass_kg is given");
+        }
         if let Some(m) = self.mass_kg {
             finite("mass_kg", m)?;
         }
@@ -447,6 +456,14 @@ impl ModelSpec {
             Column::ForceOffset => self.later_force_offset_n.unwrap_or(0.0),
             Column::ForceDrift => self.force_drift_n_per_s.unwrap_or(0.0),
         };
+        // (Where the mass acts is the spec's, not the record's it runs over.)
+        if data.mass_in_free_space != self.mass_in_free_space {
+            let data = Prepared {
+                mass_in_free_space: self.mass_in_free_space,
+                ..data.clone()
+            };
+            return regressors::predict(&data, &effects, &nl, coefficient);
+        }
         regressors::predict(data, &effects, &nl, coefficient)
     }
 
@@ -575,6 +592,7 @@ mod tests {
             damping_exponent: 1.5,
             relaxation: None,
             mass_kg: None,
+            mass_in_free_space: false,
             coulomb: None,
             delay_s: None,
             plastic_fraction: None,
@@ -595,7 +613,7 @@ mod tests {
     fn bad_specs_name_the_field() {
         assert!(valid().validate().is_ok());
         type Spoil = fn(&mut ModelSpec);
-        let cases: [(Spoil, &str); 10] = [
+        let cases: [(Spoil, &str); 11] = [
             (|s| s.schema = "other/1".into(), "field schema"),
             (
                 |s| s.elastic = ElasticLaw::PowerLaw { k: -1.0, n: 1.5 },
@@ -641,6 +659,7 @@ mod tests {
                 },
                 "field contact_shift_at_s",
             ),
+            (|s| s.mass_in_free_space = true, "field mass_in_free_space"),
         ];
         for (spoil, field) in cases {
             let mut s = valid();
