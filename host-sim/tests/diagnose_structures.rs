@@ -2171,6 +2171,26 @@ fn a_record_that_begins_mid_relaxation_names_the_relaxation_with_its_initial_sta
     }
 }
 
+/// The spec's own force over the record (`ModelSpec::force_n`, as `simulate --model-spec`
+/// runs it) reproduces the diagnosis's final NRMSE within 10 %, over the samples the
+/// diagnosis scores.
+fn assert_the_spec_reproduces_the_fit(spec: &ModelSpec, file: &FileDiagnosis, seed: u64) {
+    let force = spec.force_n(&file.prepared);
+    let data = &file.prepared;
+    let pairs = data.force_n[data.fit_start()..]
+        .iter()
+        .zip(&force)
+        .zip(&data.left_out[data.fit_start()..])
+        .filter(|(_, out)| !**out)
+        .map(|((m, f), _)| (*m, *f));
+    let nrmse = host_sim::simulate::nrmse_percent_of(pairs).unwrap();
+    let fitted = file.diagnosis.final_fit.nrmse_percent;
+    assert!(
+        (nrmse - fitted).abs() <= 0.1 * fitted,
+        "seed {seed}: the spec's {nrmse} % against the fit's {fitted} %"
+    );
+}
+
 /// (time \[s\], position \[m\], force \[N\]) of eight 0.5 s triangular taps at 1 kHz from
 /// 1 mm above to 2 mm into a Kelvin-Voigt material (κ = 2000 N/m, λ = 5 N·s/m,
 /// unilateral) whose surface lies `shift_m` deeper from tap `after` on (0-based), under
@@ -2218,20 +2238,7 @@ fn a_surface_that_moves_after_a_later_tap_is_named_with_when_it_moved() {
         let at = spec.contact_shift_at_s.expect("the switch's time");
         // After the third tap's contact (it ends by 1.3 s), before the fourth's (1.5 s on).
         assert!((1.3..1.55).contains(&at), "seed {seed}: switch at {at} s");
-        let force = spec.force_n(&file.prepared);
-        let data = &file.prepared;
-        let pairs = data.force_n[data.fit_start()..]
-            .iter()
-            .zip(&force)
-            .zip(&data.left_out[data.fit_start()..])
-            .filter(|(_, out)| !**out)
-            .map(|((m, f), _)| (*m, *f));
-        let nrmse = host_sim::simulate::nrmse_percent_of(pairs).unwrap();
-        let fitted = d.final_fit.nrmse_percent;
-        assert!(
-            (nrmse - fitted).abs() <= 0.1 * fitted,
-            "seed {seed}: the spec's {nrmse} % against the fit's {fitted} %"
-        );
+        assert_the_spec_reproduces_the_fit(&spec, &file, seed);
     }
     // The same surface moved after the first tap: no time is written (as before).
     let rows = taps_on_a_moving_surface(0, 1, shift);
@@ -2285,20 +2292,7 @@ fn a_probe_mass_is_named_where_the_free_space_shows_it() {
         assert_fitted_within_10_percent(d, seed, &[(Param::MassKg, mass)]);
         let spec = ModelSpec::of_fit(&d.final_fit, &file.prepared, "probe.csv").unwrap();
         assert!(spec.mass_in_free_space, "seed {seed}");
-        let force = spec.force_n(&file.prepared);
-        let data = &file.prepared;
-        let pairs = data.force_n[data.fit_start()..]
-            .iter()
-            .zip(&force)
-            .zip(&data.left_out[data.fit_start()..])
-            .filter(|(_, out)| !**out)
-            .map(|((m, f), _)| (*m, *f));
-        let nrmse = host_sim::simulate::nrmse_percent_of(pairs).unwrap();
-        let fitted = d.final_fit.nrmse_percent;
-        assert!(
-            (nrmse - fitted).abs() <= 0.1 * fitted,
-            "seed {seed}: the spec's {nrmse} % against the fit's {fitted} %"
-        );
+        assert_the_spec_reproduces_the_fit(&spec, &file, seed);
     }
     // Without the probe's mass, nothing is named.
     let rows = a_sine_on_a_probe_mass(0, 0.0);
