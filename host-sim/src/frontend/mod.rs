@@ -201,6 +201,48 @@ impl FrontEnd {
         law_along(&self.series, self.position_sign, &self.law)
     }
 
+    /// Where the record's free space ends, on its own position axis \[m\]: the contact
+    /// point, unless the probe rests in front of it more than it is behind it: free points
+    /// (the law's force within 3 noise deviations of zero, as the front end counts its
+    /// free space) in front of the point where the probe holds still (slower than
+    /// [`crate::phases::LOADING_SPEED_FRACTION`] of its 99.9th-percentile speed)
+    /// outnumber the free points behind it. A soft law's fit can place its contact point
+    /// anywhere between such a rest and the surface at nearly one RSS (a power law's n at
+    /// its bound 4, the point 2.6 µm behind a probe that rests 63 µm before the surface
+    /// while the load cell's zero drifts, on an independent generator's taps). The edge
+    /// is then midway between the deepest of those resting points and the shallowest
+    /// point deeper than it where the law pushes. The law's own fit is not changed; a
+    /// diagnosis flags its contact samples by this edge, so that the resting samples are
+    /// free space, where the zero is seen alone. (Free points in front of the point
+    /// where the probe moves, a random motion hovering in a soft law's first
+    /// micrometres, are the law's, not a rest.)
+    pub fn free_edge_m(&self) -> f64 {
+        let (depth, rate, force) = self.law_along();
+        let still = loading_speed(&self.series);
+        let u = |i: usize| self.position_sign * self.series.position_m[i];
+        let free = |i: usize| depth[i] <= 0.0 || force[i].abs() < 3.0 * self.noise_n;
+        let (mut resting, mut behind, mut deepest) = (0usize, 0usize, f64::NEG_INFINITY);
+        for i in (0..depth.len()).filter(|&i| free(i)) {
+            if depth[i] <= 0.0 {
+                behind += 1;
+            } else if rate[i].abs() < still {
+                resting += 1;
+                deepest = deepest.max(u(i));
+            }
+        }
+        if resting <= behind {
+            return self.contact_position_m;
+        }
+        let pushes = (0..depth.len())
+            .filter(|&i| !free(i) && u(i) > deepest)
+            .map(u)
+            .fold(f64::INFINITY, f64::min);
+        if !pushes.is_finite() {
+            return self.contact_position_m;
+        }
+        self.position_sign * 0.5 * (deepest + pushes)
+    }
+
     /// The fitted law is linear (Kelvin-Voigt, eq. 1) and pushes at every point of the
     /// record (in front of the contact point, its force above zero): then its offset and
     /// contact point trade exactly (only F0 − κ·x_c enters the force), and κ and λ do not
@@ -543,6 +585,42 @@ fn linear_orientation(series: &Series) -> Option<(f64, AxisSource)> {
     let &(sign, rss) = fits.first()?;
     let axis = AxisSource::of_fits(rss, fits.get(1).map(|f| f.1));
     axis.is_decisive().then_some((sign, axis))
+}
+
+/// The smallest RMS residual \[N\] of the Kelvin-Voigt law (eq. 1), with a free offset
+/// and contact point, on the record's fitted points, over both axis
+/// orientations (only `position_sign`'s where given); `None` where the force or the
+/// position is constant or no law with a positive stiffness fits. A tenth of a power
+/// law's cost: enough to tell a record's force sign, where the two readings differ by
+/// where the free space lies (at the force's lowest level, compression positive), which
+/// a linear law sees as well as any (see `files::Loaded::with_force_sign_of`).
+pub fn linear_law_rms_n(
+    time_s: &[f64],
+    position_m: &[f64],
+    force_n: &[f64],
+    position_sign: Option<f64>,
+) -> Option<f64> {
+    let (flo, fhi) = min_max(force_n);
+    let (xlo, xhi) = min_max(position_m);
+    if fhi.partial_cmp(&flo) != Some(std::cmp::Ordering::Greater)
+        || xhi.partial_cmp(&xlo) != Some(std::cmp::Ordering::Greater)
+    {
+        return None;
+    }
+    let series = Series::new(time_s, position_m, force_n).without_kinks();
+    let signs: &[f64] = match position_sign {
+        Some(s) if s < 0.0 => &[-1.0],
+        Some(_) => &[1.0],
+        None => &[1.0, -1.0],
+    };
+    signs
+        .par_iter()
+        .filter_map(|&s| {
+            Problem::new(&series, s, LawFamily::KelvinVoigt, OffsetTerm::Free)
+                .fit()
+                .map(|f| f.rms_n())
+        })
+        .reduce_with(f64::min)
 }
 
 /// Which fits decided the axis orientation of a [`FrontEnd`] when its own law's did not.
