@@ -114,13 +114,12 @@ impl Loaded {
         // its negated law fit the loading curve only (a hidden delay or relaxation): an
         // independent generator's compression-negative ramps, sawtooths, taps and sines
         // from contact, 17 of its 35 such records misread, a power law named on a clean one.
-        let negated_force: Vec<f64> = force.iter().map(|f| -f).collect();
-        let (time_s, position_m) = (&self.native.time_s, &self.native.position_m);
-        let (as_read_linear, negated_linear) = rayon::join(
-            || frontend::linear_law_rms_n(time_s, position_m, force, position_sign),
-            || frontend::linear_law_rms_n(time_s, position_m, &negated_force, position_sign),
+        let (as_read_linear, negated_linear) = frontend::linear_law_rms_n(
+            &self.native.time_s,
+            &self.native.position_m,
+            force,
+            position_sign,
         );
-        drop(negated_force);
         let linear_prefers_negated = match (negated_linear, as_read_linear) {
             (Some(n), Some(r)) => NEGATED_FORCE_LINEAR_RMS_FACTOR * n <= r,
             (Some(_), None) => true,

@@ -588,39 +588,46 @@ fn linear_orientation(series: &Series) -> Option<(f64, AxisSource)> {
 }
 
 /// The smallest RMS residual \[N\] of the Kelvin-Voigt law (eq. 1), with a free offset
-/// and contact point, on the record's fitted points, over both axis
-/// orientations (only `position_sign`'s where given); `None` where the force or the
-/// position is constant or no law with a positive stiffness fits. A tenth of a power
-/// law's cost: enough to tell a record's force sign, where the two readings differ by
-/// where the free space lies (at the force's lowest level, compression positive), which
-/// a linear law sees as well as any (see `files::Loaded::with_force_sign_of`).
+/// and contact point, on the record's fitted points, over both axis orientations (only
+/// `position_sign`'s where given): (on the force as read, on the force negated); `None`
+/// where the force or the position is constant or no law with a positive stiffness
+/// fits. A tenth of a power law's cost each: enough to tell a record's force sign, where
+/// the two readings differ by where the free space lies (at the force's lowest level,
+/// compression positive), which a linear law sees as well as any (see
+/// `files::Loaded::with_force_sign_of`). The points are built once: a point's force is a
+/// mean, so the negated record's points are the points negated.
 pub fn linear_law_rms_n(
     time_s: &[f64],
     position_m: &[f64],
     force_n: &[f64],
     position_sign: Option<f64>,
-) -> Option<f64> {
+) -> (Option<f64>, Option<f64>) {
     let (flo, fhi) = min_max(force_n);
     let (xlo, xhi) = min_max(position_m);
     if fhi.partial_cmp(&flo) != Some(std::cmp::Ordering::Greater)
         || xhi.partial_cmp(&xlo) != Some(std::cmp::Ordering::Greater)
     {
-        return None;
+        return (None, None);
     }
-    let series = Series::new(time_s, position_m, force_n).without_kinks();
+    let as_read = Series::new(time_s, position_m, force_n).without_kinks();
+    let mut negated = as_read.clone();
+    negated.force_n.iter_mut().for_each(|f| *f = -*f);
     let signs: &[f64] = match position_sign {
         Some(s) if s < 0.0 => &[-1.0],
         Some(_) => &[1.0],
         None => &[1.0, -1.0],
     };
-    signs
-        .par_iter()
-        .filter_map(|&s| {
-            Problem::new(&series, s, LawFamily::KelvinVoigt, OffsetTerm::Free)
-                .fit()
-                .map(|f| f.rms_n())
-        })
-        .reduce_with(f64::min)
+    let best = |series: &Series| {
+        signs
+            .par_iter()
+            .filter_map(|&s| {
+                Problem::new(series, s, LawFamily::KelvinVoigt, OffsetTerm::Free)
+                    .fit()
+                    .map(|f| f.rms_n())
+            })
+            .reduce_with(f64::min)
+    };
+    rayon::join(|| best(&as_read), || best(&negated))
 }
 
 /// Which fits decided the axis orientation of a [`FrontEnd`] when its own law's did not.
