@@ -220,7 +220,7 @@ impl FrontEnd {
         let (depth, rate, force) = self.law_along();
         let still = loading_speed(&self.series);
         let u = |i: usize| self.position_sign * self.series.position_m[i];
-        let free = |i: usize| depth[i] <= 0.0 || force[i].abs() < 3.0 * self.noise_n;
+        let free = |i: usize| is_free_point(depth[i], force[i], self.noise_n);
         let (mut resting, mut behind, mut deepest) = (0usize, 0usize, f64::NEG_INFINITY);
         for i in (0..depth.len()).filter(|&i| free(i)) {
             if depth[i] <= 0.0 {
@@ -832,6 +832,15 @@ fn check_contact(
     Ok(())
 }
 
+/// Whether a point at penetration `depth_m` \[m\], where the law's force (offset
+/// excluded) is `law_force_n` \[N\], is free space for a front end whose points' noise is
+/// `noise_n` \[N\]: behind the contact point, or so close to it that the law's force is
+/// below 3 noise deviations (the one rule of [`FreeSpace`] and
+/// [`FrontEnd::free_edge_m`]).
+fn is_free_point(depth_m: f64, law_force_n: f64, noise_n: f64) -> bool {
+    depth_m <= 0.0 || law_force_n.abs() < 3.0 * noise_n
+}
+
 /// A slope \[N/m\] and its standard error.
 type Slope = (f64, f64);
 
@@ -881,7 +890,7 @@ impl FreeSpace {
         let behind: Vec<bool> = depth
             .iter()
             .zip(&predicted)
-            .map(|(d, f)| *d <= 0.0 || f.abs() < 3.0 * noise_n)
+            .map(|(d, f)| is_free_point(*d, *f, noise_n))
             .collect();
         let unexplained: Vec<f64> = series
             .force_n
